@@ -1,0 +1,170 @@
+"""The MuJoCo imitation environment (gymnasium API).
+
+An episode starts from the reference (FSI: first frame; RSI: a random frame), or from a
+given full state at a given phase (what the ASI server hands out). Each control step sets
+the PD targets, advances MuJoCo `physics_hz / control_hz` substeps, and scores the state
+against the reference with the SFV reward. The episode ends early when the root, chest or
+head touches the ground (switchable), and is truncated at the horizon: 20 s for looped clips,
+the clip's end otherwise.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+
+from actors.actions import ActionMapper
+from actors.features import NUM_REWARD_ROTATIONS, OBS_DIM, FeatureExtractor, update_kinematics
+from actors.humanoid import Humanoid, PhysicsConfig
+from actors.motion import ReferenceMotion
+from actors.reference_track import ReferenceTrack
+from actors.reward import ImitationReward, RewardConfig
+from actors.state import StateLayout
+
+INIT_STRATEGIES = ("fsi", "rsi", "state")
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    control_hz: float = field(default=30.0, metadata={"help": "policy queries per second (the paper's 30 Hz)"})
+    physics: PhysicsConfig = field(default_factory=PhysicsConfig, metadata={"help": "MuJoCo model settings (physics rate, friction)"})
+    reward: RewardConfig = field(default_factory=RewardConfig, metadata={"help": "reward weights and scales"})
+    horizon_s: float = field(default=20.0, metadata={"help": "episode horizon for looped clips (seconds)"})
+    early_termination: bool = field(default=True, metadata={"help": "end the episode when the torso or head touches the ground; off for rolls"})
+    action_parameterisation: str = field(default="axis_angle", metadata={"help": "axis_angle (36-D, the paper's) or exp_map (28-D)"})
+    init: str = field(default="rsi", metadata={"help": "start of an episode when reset() is given no state: fsi or rsi"})
+
+    @property
+    def substeps(self) -> int:
+        n = self.physics.physics_hz / self.control_hz
+        if abs(n - round(n)) > 1e-9 or n < 1:
+            raise ValueError(f"physics_hz ({self.physics.physics_hz}) must be a whole multiple of control_hz ({self.control_hz})")
+        return int(round(n))
+
+
+class ImitationEnv(gym.Env):
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
+
+    def __init__(self, motion: ReferenceMotion, config: EnvConfig = EnvConfig(), humanoid: Humanoid | None = None, track: ReferenceTrack | None = None):
+        self.config = config
+        self.motion = motion
+        self.humanoid = humanoid or Humanoid(config.physics)
+        self.model = self.humanoid.model
+        self.data = mujoco.MjData(self.model)
+        self.substeps = config.substeps
+        self.track = track or ReferenceTrack(motion, self.humanoid, 1.0 / config.control_hz, config.horizon_s)
+        self.layout = StateLayout(self.humanoid)
+        self.features = FeatureExtractor(self.humanoid)
+        self.actions = ActionMapper(config.action_parameterisation)
+        self.reward_fn = ImitationReward(config.reward)
+        self.max_reward = config.reward.max_reward
+        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (OBS_DIM,), np.float32)
+        self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
+        self.state_dim = self.layout.state_dim
+        # Per-step buffers: the hot path writes into these instead of allocating.
+        self._obs = np.zeros(OBS_DIM, dtype=np.float64)
+        self._rot = np.zeros((NUM_REWARD_ROTATIONS, 4))
+        self._ang = np.zeros((NUM_REWARD_ROTATIONS, 3))
+        self._ee = np.zeros((4, 3))
+        self._com = np.zeros(3)
+        self.reward_terms = np.zeros(4)
+        self._fall_geoms = self.humanoid.fall_geom_ids
+        self._start = 0
+        self._step = 0
+        self._max_steps = 1
+
+    # ------------------------------------------------------------------------ reset
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """options: {"init": "fsi"|"rsi"|"state", "phase": float, "state": (state_dim,) array}."""
+        super().reset(seed=seed)
+        options = options or {}
+        init = options.get("init", "state" if "state" in options else self.config.init)
+        if init not in INIT_STRATEGIES:
+            raise ValueError(f"init must be one of {INIT_STRATEGIES}, got {init!r}")
+        if init == "fsi":
+            start = 0
+        elif init == "rsi" and "phase" not in options:
+            start = int(self.np_random.integers(self.track.start_steps))
+        else:
+            start = self.track.start_index(float(options.get("phase", 0.0)))
+        self._start, self._step = start, 0
+        self._max_steps = self.track.episode_steps(start)
+        mujoco.mj_resetData(self.model, self.data)
+        if init == "state":
+            state = np.asarray(options["state"], dtype=np.float64)
+            if state.shape != (self.state_dim,) or not np.isfinite(state).all():
+                raise ValueError(f"initial state must be {self.state_dim} finite numbers, got shape {state.shape}")
+            self.layout.apply_state_vector(state, self.track.qpos[start, :2], self.data.qpos, self.data.qvel)
+        else:
+            self.data.qpos[:] = self.track.qpos[start]
+            self.data.qvel[:] = self.track.qvel[start]
+        # Hold the current pose as the first PD target so the first substeps do not jerk.
+        update_kinematics(self.model, self.data)
+        self.data.ctrl[:] = self.data.actuator_length if self.model.nu else 0.0
+        return self._observation(), {"phase": float(self.track.phase[start]), "start_step": start}
+
+    # ------------------------------------------------------------------------- step
+    def step(self, action):
+        self.actions.targets(np.asarray(action, dtype=np.float64), out=self.data.ctrl)
+        mujoco.mj_step(self.model, self.data, nstep=self.substeps)
+        update_kinematics(self.model, self.data)
+        self._step += 1
+        reward = self._reward()
+        terminated = self.config.early_termination and self._fallen()
+        truncated = (not terminated) and self._step >= self._max_steps
+        if not np.isfinite(self.data.qpos).all():
+            # The simulation diverged: end the episode as a fall rather than pass NaN on.
+            terminated, truncated, reward = True, False, 0.0
+        return self._observation(), reward, terminated, truncated, {}
+
+    # ---------------------------------------------------------------------- queries
+    @property
+    def row(self) -> int:
+        return self._start + self._step
+
+    @property
+    def phase(self) -> float:
+        return float(self.track.phase[self.row])
+
+    @property
+    def max_episode_steps(self) -> int:
+        return self._max_steps
+
+    def state_vector(self) -> np.ndarray:
+        return self.layout.state_vector(self.data.qpos, self.data.qvel)
+
+    def reference_state_vector(self, row: int) -> np.ndarray:
+        return self.layout.state_vector(self.track.qpos[row], self.track.qvel[row])
+
+    def set_reference_state(self, row: int) -> None:
+        """Put the character exactly on the reference at a table row (playback)."""
+        self.data.qpos[:] = self.track.qpos[row]
+        self.data.qvel[:] = self.track.qvel[row]
+        update_kinematics(self.model, self.data)
+
+    def reward_at(self, row: int) -> float:
+        """Reward of the current simulated state against the reference at `row`."""
+        t = self.track
+        self.features.reward_features(self.data, self._rot, self._ang, self._ee, self._com)
+        return self.reward_fn(self._rot, self._ang, self._ee, self._com, t.rotations[row], t.ang_vel[row], t.end_effectors[row], t.com[row], self.reward_terms)
+
+    # --------------------------------------------------------------------- internals
+    def _observation(self) -> np.ndarray:
+        return self.features.observation(self.data, self.track.phase[self.row], self._obs).astype(np.float32)
+
+    def observation_into(self, out: np.ndarray) -> np.ndarray:
+        """Write the observation into a caller's (float32) row without an extra copy."""
+        out[:] = self.features.observation(self.data, self.track.phase[self.row], self._obs)
+        return out
+
+    def _reward(self) -> float:
+        return self.reward_at(self.row)
+
+    def _fallen(self) -> bool:
+        ncon = self.data.ncon
+        if ncon == 0:
+            return False
+        geoms = self.data.contact.geom[:ncon]
+        return bool(np.isin(geoms, self._fall_geoms).any())

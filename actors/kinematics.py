@@ -1,0 +1,64 @@
+"""Forward kinematics of the humanoid in numpy and (batched, differentiable) torch.
+
+A pose is the root position (..., 3), the root rotation (..., 4) and the local rotation of
+each of the 12 joints as a quaternion (..., 12, 4) in `skeleton.JOINT_NAMES` order (revolute
+joints as rotations about `skeleton.HINGE_AXIS`). The result is the world position and
+rotation of every link frame (..., 15, 3) and (..., 15, 4) in `skeleton.LINK_NAMES` order; a
+link frame sits at its joint, so these equal MuJoCo's `xpos` / `xquat` of the same bodies.
+"""
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from actors import quaternion as qn
+from actors import quaternion_torch as qt
+from actors.skeleton import HINGE_AXIS, LINK_JOINT, NUM_LINKS, OFFSETS, PARENTS, REVOLUTE_JOINTS, SPHERICAL_JOINTS
+
+
+def forward_kinematics(root_pos: np.ndarray, root_quat: np.ndarray, joint_quats: np.ndarray):
+    """World link positions (..., 15, 3) and rotations (..., 15, 4)."""
+    batch = root_pos.shape[:-1]
+    pos = np.empty(batch + (NUM_LINKS, 3))
+    rot = np.empty(batch + (NUM_LINKS, 4))
+    pos[..., 0, :] = root_pos
+    rot[..., 0, :] = root_quat
+    for link in range(1, NUM_LINKS):
+        parent = PARENTS[link]
+        parent_rot = rot[..., parent, :]
+        pos[..., link, :] = pos[..., parent, :] + qn.quat_rotate(parent_rot, np.broadcast_to(OFFSETS[link], batch + (3,)))
+        joint = LINK_JOINT[link]
+        rot[..., link, :] = parent_rot if joint < 0 else qn.quat_mul(parent_rot, joint_quats[..., joint, :])
+    return pos, rot
+
+
+def forward_kinematics_torch(root_pos: torch.Tensor, root_quat: torch.Tensor, joint_quats: torch.Tensor):
+    """Torch version of `forward_kinematics`; gradients flow to all three inputs."""
+    offsets = torch.as_tensor(OFFSETS, dtype=root_pos.dtype, device=root_pos.device)
+    positions = [root_pos]
+    rotations = [root_quat]
+    for link in range(1, NUM_LINKS):
+        parent = int(PARENTS[link])
+        parent_rot = rotations[parent]
+        positions.append(positions[parent] + qt.quat_rotate(parent_rot, offsets[link].expand_as(root_pos)))
+        joint = int(LINK_JOINT[link])
+        rotations.append(parent_rot if joint < 0 else qt.quat_mul(parent_rot, joint_quats[..., joint, :]))
+    return torch.stack(positions, dim=-2), torch.stack(rotations, dim=-2)
+
+
+def joint_quats_from_params_torch(spherical_rotvecs: torch.Tensor, revolute_angles: torch.Tensor) -> torch.Tensor:
+    """Build the (..., 12, 4) joint quaternions from free parameters an optimiser can own.
+
+    spherical_rotvecs: (..., 8, 3) rotation vectors of the spherical joints (exp map),
+    revolute_angles: (..., 4) hinge angles, both in skeleton order.
+    """
+    batch = revolute_angles.shape[:-1]
+    quats = revolute_angles.new_zeros(batch + (len(SPHERICAL_JOINTS) + len(REVOLUTE_JOINTS), 4))
+    axis = torch.as_tensor(HINGE_AXIS, dtype=revolute_angles.dtype, device=revolute_angles.device)
+    quats = quats.index_copy(-2, torch.as_tensor(SPHERICAL_JOINTS), qt.quat_from_axis_angle(spherical_rotvecs))
+    return quats.index_copy(-2, torch.as_tensor(REVOLUTE_JOINTS), qt.quat_about_axis(revolute_angles, axis))
+
+
+def revolute_angle(quat: np.ndarray) -> np.ndarray:
+    """Signed angle about HINGE_AXIS of a quaternion that is (close to) such a rotation."""
+    return 2.0 * np.arctan2(quat[..., 1:] @ HINGE_AXIS, quat[..., 0])

@@ -1,0 +1,208 @@
+"""Reading and writing reference motions.
+
+Formats
+- DeepMimic motion files (JSON): `{"Loop": "wrap"|"none", "Frames": [[44 floats], ...]}`,
+  each frame `duration, root pos (3), root quat (4, w first), then per joint a quaternion
+  (spherical) or an angle (revolute)` in DeepMimic's order, Y up. Loaded into Z up, every
+  quaternion normalised, the first frame's horizontal root position subtracted.
+- The project's own `.npz` (format 1): `format` = "sfv-motion-1", `name`, `frame_times` (T,),
+  `root_pos` (T, 3), `root_rot` (T, 4 wxyz), `joint_rot` (T, 12, 4 wxyz), `joint_names` (12,),
+  `loop` (bool). Any other array is kept in `ReferenceMotion.extras` and written back.
+- Names: `deepmimic:<clip>` resolves to `pybullet_data/data/motions/humanoid3d_<clip>.txt`
+  (install the `mocap` extra); anything else is a path.
+
+Every fault raises `MotionFormatError` with the file and the fault in one line.
+"""
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from actors import quaternion as qn
+from actors.errors import MotionFormatError
+from actors.kinematics import revolute_angle
+from actors.motion import ReferenceMotion
+from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, JOINT_NAMES, NUM_JOINTS
+
+DEEPMIMIC_COLUMNS = 1 + 3 + 4 + int(4 * JOINT_IS_SPHERICAL.sum() + (~JOINT_IS_SPHERICAL).sum())  # 44
+NPZ_FORMAT = "sfv-motion-1"
+DEEPMIMIC_CLIPS = (
+    "backflip", "cartwheel", "crawl", "dance_a", "dance_b", "getup_facedown", "getup_faceup",
+    "jump", "kick", "punch", "roll", "run", "spin", "spinkick", "walk",
+)
+
+
+def resolve_motion_path(name_or_path: str) -> Path:
+    if name_or_path.startswith("deepmimic:"):
+        clip = name_or_path.split(":", 1)[1]
+        try:
+            import pybullet_data
+        except ImportError:
+            raise MotionFormatError(f"{name_or_path}: needs the DeepMimic clips from pybullet_data (pip install 'sfv[mocap]')") from None
+        path = Path(pybullet_data.getDataPath()) / "data" / "motions" / f"humanoid3d_{clip}.txt"
+        if not path.is_file():
+            raise MotionFormatError(f"{name_or_path}: no such DeepMimic clip (known: {', '.join(DEEPMIMIC_CLIPS)})")
+        return path
+    path = Path(name_or_path)
+    if not path.is_file():
+        raise MotionFormatError(f"{path}: motion file not found")
+    return path
+
+
+def load_motion(name_or_path: str) -> ReferenceMotion:
+    """Load a motion by name (`deepmimic:walk`) or path (.npz or DeepMimic JSON)."""
+    path = resolve_motion_path(str(name_or_path))
+    with open(path, "rb") as f:
+        magic = f.read(4)
+    if magic.startswith(b"PK"):
+        motion = _load_npz(path)
+    else:
+        motion = _load_deepmimic(path)
+    if str(name_or_path).startswith("deepmimic:"):
+        motion.name = str(name_or_path)
+    return motion
+
+
+# --------------------------------------------------------------------- validation
+def _check_finite(path, what: str, array: np.ndarray):
+    bad = ~np.isfinite(array)
+    if bad.any():
+        frame = int(np.argwhere(bad)[0][0])
+        raise MotionFormatError(f"{path}: {what} holds NaN or infinite values (first at frame {frame})")
+
+
+def _unit_quats(path, what: str, q: np.ndarray) -> np.ndarray:
+    norm = np.linalg.norm(q, axis=-1, keepdims=True)
+    if (norm < 1e-6).any():
+        frame = int(np.argwhere(norm[..., 0] < 1e-6)[0][0])
+        raise MotionFormatError(f"{path}: {what} has a zero-length quaternion at frame {frame}")
+    return q / norm
+
+
+def _check_times(path, frame_times: np.ndarray):
+    if len(frame_times) < 2:
+        raise MotionFormatError(f"{path}: a motion needs at least 2 frames, found {len(frame_times)}")
+    steps = np.diff(frame_times)
+    if (steps <= 0).any():
+        frame = int(np.argmax(steps <= 0))
+        raise MotionFormatError(f"{path}: frame durations must be positive (frame {frame} has {steps[frame]:.6g} s)")
+
+
+# ----------------------------------------------------------------------- DeepMimic
+def _yup_quat_to_zup(q: np.ndarray) -> np.ndarray:
+    return np.stack((q[..., 0], q[..., 1], -q[..., 3], q[..., 2]), axis=-1)
+
+
+def _load_deepmimic(path: Path) -> ReferenceMotion:
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise MotionFormatError(f"{path}: not a motion file (neither .npz nor DeepMimic JSON: {exc.__class__.__name__})") from None
+    if not isinstance(doc, dict) or "Frames" not in doc:
+        raise MotionFormatError(f"{path}: DeepMimic JSON needs a 'Frames' list")
+    frames = doc["Frames"]
+    if not isinstance(frames, list) or not all(isinstance(row, list) for row in frames):
+        raise MotionFormatError(f"{path}: 'Frames' must be a list of rows of numbers")
+    widths = {len(row) for row in frames}
+    if widths and widths != {DEEPMIMIC_COLUMNS}:
+        bad = next(i for i, row in enumerate(frames) if len(row) != DEEPMIMIC_COLUMNS)
+        raise MotionFormatError(f"{path}: frame {bad} has {len(frames[bad])} columns, expected {DEEPMIMIC_COLUMNS}")
+    try:
+        data = np.array(frames, dtype=np.float64).reshape(len(frames), DEEPMIMIC_COLUMNS)
+    except (TypeError, ValueError):
+        raise MotionFormatError(f"{path}: 'Frames' holds values that are not numbers") from None
+    _check_finite(path, "Frames", data)
+    if len(data) < 2:
+        raise MotionFormatError(f"{path}: a motion needs at least 2 frames, found {len(data)}")
+    durations = data[:, 0]
+    if (durations[:-1] <= 0).any():
+        frame = int(np.argmax(durations[:-1] <= 0))
+        raise MotionFormatError(f"{path}: frame durations must be positive (frame {frame} has {durations[frame]:.6g} s)")
+    frame_times = np.concatenate(([0.0], np.cumsum(durations[:-1])))
+    loop = str(doc.get("Loop", "none")).lower() == "wrap"
+
+    root_pos = np.stack((data[:, 1], -data[:, 3], data[:, 2]), axis=-1)
+    root_pos[:, :2] -= root_pos[0, :2]
+    root_rot = _yup_quat_to_zup(_unit_quats(path, "root rotation", data[:, 4:8]))
+    joint_rot = np.empty((len(data), NUM_JOINTS, 4))
+    col = 8
+    for j in range(NUM_JOINTS):
+        if JOINT_IS_SPHERICAL[j]:
+            joint_rot[:, j] = _yup_quat_to_zup(_unit_quats(path, f"{JOINT_NAMES[j]} rotation", data[:, col:col + 4]))
+            col += 4
+        else:
+            joint_rot[:, j] = qn.quat_about_axis(data[:, col], HINGE_AXIS)
+            col += 1
+    return ReferenceMotion(path.stem, frame_times, root_pos, root_rot, joint_rot, loop)
+
+
+# ---------------------------------------------------------------------------- npz
+def _load_npz(path: Path) -> ReferenceMotion:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as exc:
+        raise MotionFormatError(f"{path}: unreadable .npz ({exc})") from None
+    if str(arrays.get("format", "")) != NPZ_FORMAT:
+        raise MotionFormatError(f"{path}: not an sfv motion file (format key must be '{NPZ_FORMAT}')")
+    shapes = {"frame_times": (None,), "root_pos": (None, 3), "root_rot": (None, 4), "joint_rot": (None, NUM_JOINTS, 4)}
+    for key, shape in shapes.items():
+        if key not in arrays:
+            raise MotionFormatError(f"{path}: missing array '{key}'")
+        a = arrays[key]
+        if a.ndim != len(shape) or any(s is not None and s != d for s, d in zip(shape, a.shape)):
+            raise MotionFormatError(f"{path}: '{key}' has shape {a.shape}, expected {tuple('T' if s is None else s for s in shape)}")
+        if not np.issubdtype(a.dtype, np.number):
+            raise MotionFormatError(f"{path}: '{key}' is not numeric")
+        _check_finite(path, key, a.astype(np.float64))
+    t = arrays["frame_times"].astype(np.float64)
+    if not (len(t) == len(arrays["root_pos"]) == len(arrays["root_rot"]) == len(arrays["joint_rot"])):
+        raise MotionFormatError(f"{path}: frame_times, root_pos, root_rot and joint_rot differ in frame count")
+    _check_times(path, t)
+    names = tuple(str(n) for n in arrays.get("joint_names", JOINT_NAMES))
+    if names != JOINT_NAMES:
+        raise MotionFormatError(f"{path}: joint_names {names} do not match the humanoid's {JOINT_NAMES}")
+    known = set(shapes) | {"format", "name", "loop", "joint_names"}
+    extras = {k: v for k, v in arrays.items() if k not in known}
+    return ReferenceMotion(
+        str(arrays.get("name", path.stem)),
+        t - t[0],
+        arrays["root_pos"].astype(np.float64),
+        _unit_quats(path, "root_rot", arrays["root_rot"].astype(np.float64)),
+        _unit_quats(path, "joint_rot", arrays["joint_rot"].astype(np.float64)),
+        bool(arrays.get("loop", False)),
+        extras,
+    )
+
+
+def save_motion(motion: ReferenceMotion, path: str | os.PathLike) -> Path:
+    """Write the .npz atomically (temp file in the same folder, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays = dict(motion.extras)
+    arrays.update(
+        format=np.array(NPZ_FORMAT), name=np.array(motion.name), loop=np.array(motion.loop),
+        frame_times=motion.frame_times, root_pos=motion.root_pos, root_rot=motion.root_rot,
+        joint_rot=motion.joint_rot, joint_names=np.array(JOINT_NAMES),
+    )
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez_compressed(f, **arrays)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def hinge_angles(motion: ReferenceMotion) -> np.ndarray:
+    """(T, 4) revolute joint angles of a motion, for exporters."""
+    return revolute_angle(motion.joint_rot[:, ~JOINT_IS_SPHERICAL])

@@ -1,0 +1,67 @@
+"""A reference motion tabulated at the control rate, ready for O(1) lookups per step.
+
+Episodes start on the control-step grid (k0 * dt), so the reference at every step of every
+episode is a row of this table. Each row holds the reference's qpos / qvel (to start an
+episode on it) and the reward's kinematic features, computed once with MuJoCo itself on a
+scratch MjData, so the reward compares like with like.
+"""
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from actors.features import NUM_REWARD_ROTATIONS, FeatureExtractor, update_kinematics
+from actors.humanoid import Humanoid
+from actors.motion import ReferenceMotion
+from actors.state import StateLayout
+
+
+class ReferenceTrack:
+    def __init__(self, motion: ReferenceMotion, humanoid: Humanoid, control_dt: float, horizon_s: float):
+        self.motion = motion
+        self.dt = control_dt
+        # Start indices cover one pass of the clip; looped episodes then run `horizon` steps.
+        self.start_steps = max(1, int(round(motion.duration / control_dt)))
+        if motion.loop:
+            self.horizon_steps = int(round(horizon_s / control_dt))
+            rows = self.start_steps + self.horizon_steps + 1
+        else:
+            self.horizon_steps = self.start_steps
+            rows = self.start_steps + 1
+        times = np.minimum(np.arange(rows) * control_dt, math.inf if motion.loop else motion.duration)
+        self.times = times
+        self.phase = motion.phase(times)
+        if not motion.loop:
+            self.phase[-1] = 1.0
+        layout = StateLayout(humanoid)
+        model = humanoid.model
+        self.qpos = np.zeros((rows, model.nq))
+        self.qvel = np.zeros((rows, model.nv))
+        self.rotations = np.zeros((rows, NUM_REWARD_ROTATIONS, 4))
+        self.ang_vel = np.zeros((rows, NUM_REWARD_ROTATIONS, 3))
+        self.end_effectors = np.zeros((rows, 4, 3))
+        self.com = np.zeros((rows, 3))
+        scratch = mujoco.MjData(model)
+        features = FeatureExtractor(humanoid)
+        poses = motion.sample(times)
+        for k in range(rows):
+            pose_k = type(poses)(*(getattr(poses, f)[k] for f in poses.__dataclass_fields__))
+            layout.pose_to_qpos_qvel(pose_k, self.qpos[k], self.qvel[k])
+            scratch.qpos[:] = self.qpos[k]
+            scratch.qvel[:] = self.qvel[k]
+            update_kinematics(model, scratch)
+            features.reward_features(scratch, self.rotations[k], self.ang_vel[k], self.end_effectors[k], self.com[k])
+
+    @property
+    def rows(self) -> int:
+        return len(self.times)
+
+    def episode_steps(self, start: int) -> int:
+        """Control steps an episode starting at row `start` may run (its maximum length)."""
+        return self.horizon_steps if self.motion.loop else self.start_steps - start
+
+    def start_index(self, phase: float) -> int:
+        """The grid row nearest to a phase in [0, 1]; the clip's last frame is not a start."""
+        return int(min(round(phase * self.start_steps), self.start_steps - (0 if self.motion.loop else 1)) % self.start_steps)

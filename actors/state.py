@@ -1,0 +1,66 @@
+"""The character's full state in MuJoCo terms, and the vector ASI learns a distribution over.
+
+`pose_to_qpos_qvel` maps a `MotionPose` onto MuJoCo's qpos / qvel (free root, ball joints
+as quaternions, hinges as angles). The ASI state vector is `qpos[2:]` followed by `qvel`
+(root height, root rotation, joint rotations, then all velocities: 41 + 34 = 75 numbers):
+the root's horizontal position is left out because it is always taken from the reference at
+the sampled phase, so the Gaussians do not have to learn where the clip is on the floor.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from actors.humanoid import Humanoid
+from actors.kinematics import revolute_angle
+from actors.motion import MotionPose
+from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, NUM_JOINTS
+
+
+class StateLayout:
+    """Index arrays that move a pose in and out of qpos / qvel without Python loops."""
+
+    def __init__(self, humanoid: Humanoid):
+        self.nq, self.nv = humanoid.nq, humanoid.nv
+        qadr, dadr = humanoid.joint_qpos_adr, humanoid.joint_dof_adr
+        sph, rev = JOINT_IS_SPHERICAL, ~JOINT_IS_SPHERICAL
+        self.ball_qpos = qadr[sph][:, None] + np.arange(4)  # (8, 4)
+        self.ball_dof = dadr[sph][:, None] + np.arange(3)  # (8, 3)
+        self.hinge_qpos = qadr[rev]  # (4,)
+        self.hinge_dof = dadr[rev]
+        self.spherical = np.flatnonzero(sph)
+        self.revolute = np.flatnonzero(rev)
+        self.state_dim = self.nq - 2 + self.nv
+        # Quaternion slices inside the ASI state vector (renormalised after sampling).
+        self.state_quat_slices = [slice(1, 5)] + [slice(a - 2, a + 2) for a in qadr[sph]]
+
+    def pose_to_qpos_qvel(self, pose: MotionPose, qpos: np.ndarray, qvel: np.ndarray) -> None:
+        qpos[0:3] = pose.root_pos
+        qpos[3:7] = pose.root_rot
+        qpos[self.ball_qpos] = pose.joint_rot[self.spherical]
+        qpos[self.hinge_qpos] = revolute_angle(pose.joint_rot[self.revolute])
+        qvel[0:3] = pose.root_lin_vel
+        qvel[3:6] = pose.root_ang_vel
+        qvel[self.ball_dof] = pose.joint_ang_vel[self.spherical]
+        qvel[self.hinge_dof] = pose.joint_ang_vel[self.revolute] @ HINGE_AXIS
+
+    def joint_quats_from_qpos(self, qpos: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """(12, 4) local joint quaternions in skeleton order from a qpos vector."""
+        out[self.spherical] = qpos[self.ball_qpos]
+        half = 0.5 * qpos[self.hinge_qpos]
+        out[self.revolute, 0] = np.cos(half)
+        out[self.revolute, 1:] = np.sin(half)[:, None] * HINGE_AXIS
+        return out
+
+    def state_vector(self, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
+        return np.concatenate((qpos[2:], qvel))
+
+    def apply_state_vector(self, state: np.ndarray, root_xy: np.ndarray, qpos: np.ndarray, qvel: np.ndarray) -> None:
+        qpos[0:2] = root_xy
+        qpos[2:] = state[: self.nq - 2]
+        qvel[:] = state[self.nq - 2:]
+        for s in self.state_quat_slices:
+            q = qpos[2:][s]
+            qpos[2:][s] = q / max(np.linalg.norm(q), 1e-9)
+
+
+assert NUM_JOINTS == 12

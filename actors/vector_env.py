@@ -1,0 +1,122 @@
+"""M imitation envs in one process, stepped together for batched policy inference.
+
+Arrays in and out are (M, ...) numpy arrays; an env that finishes is reset at once from the
+start source (auto-reset), and its episode's statistics are recorded: return, normalised
+return (return over the maximum possible for that episode), length, whether it fell, and
+for ASI its initial state, component and discounted return.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from actors.features import OBS_DIM
+from actors.humanoid import Humanoid
+from actors.imitation_env import EnvConfig, ImitationEnv
+from actors.initial_states import BufferedStarts
+from actors.motion import ReferenceMotion
+from actors.reference_track import ReferenceTrack
+
+
+@dataclass
+class EpisodeLog:
+    """Finished episodes since the last `drain()` (lists while collecting, arrays out)."""
+
+    returns: list = field(default_factory=list)
+    normalized_returns: list = field(default_factory=list)
+    discounted_returns: list = field(default_factory=list)
+    lengths: list = field(default_factory=list)
+    fell: list = field(default_factory=list)
+    components: list = field(default_factory=list)
+    initial_states: list = field(default_factory=list)
+
+    def drain(self) -> dict[str, np.ndarray]:
+        out = {k: np.asarray(v, dtype=np.float32 if k != "components" else np.int64) for k, v in self.__dict__.items() if k != "initial_states"}
+        out["fell"] = out["fell"].astype(bool)
+        out["initial_states"] = np.asarray(self.initial_states, dtype=np.float32).reshape(len(self.initial_states), -1)
+        for v in self.__dict__.values():
+            v.clear()
+        return out
+
+
+class VectorImitationEnv:
+    def __init__(self, motion: ReferenceMotion, config: EnvConfig, num_envs: int, starts: BufferedStarts, seed: int = 0, gamma: float = 0.95):
+        humanoid = Humanoid(config.physics)
+        track = ReferenceTrack(motion, humanoid, 1.0 / config.control_hz, config.horizon_s)
+        self.envs = [ImitationEnv(motion, config, humanoid, track) for _ in range(num_envs)]
+        self.num_envs = num_envs
+        self.starts = starts
+        self.gamma = gamma
+        self.action_dim = self.envs[0].action_space.shape[0]
+        self.state_dim = self.envs[0].state_dim
+        self.obs = np.zeros((num_envs, OBS_DIM), dtype=np.float32)
+        self.final_obs = np.zeros((num_envs, OBS_DIM), dtype=np.float32)
+        self.rewards = np.zeros(num_envs, dtype=np.float32)
+        self.terminated = np.zeros(num_envs, dtype=bool)
+        self.truncated = np.zeros(num_envs, dtype=bool)
+        self._ret = np.zeros(num_envs)
+        self._disc = np.zeros(num_envs)
+        self._discount = np.ones(num_envs)
+        self._len = np.zeros(num_envs, dtype=np.int64)
+        self._component = np.full(num_envs, -1, dtype=np.int64)
+        self._init_state = np.zeros((num_envs, self.state_dim))
+        self.episodes = EpisodeLog()
+        self._seed = seed
+        self._seeded = False
+
+    def reset(self) -> np.ndarray:
+        for i in range(self.num_envs):
+            self._reset_env(i)
+        return self.obs
+
+    def _reset_env(self, i: int) -> None:
+        env = self.envs[i]
+        phase, component, state = self.starts.take()
+        options = {"phase": phase, "init": "state" if state is not None else "rsi"}
+        if state is not None:
+            options["state"] = state
+        seed = None if self._seeded else self._seed + i
+        env.reset(seed=seed, options=options)
+        env.observation_into(self.obs[i])
+        self._init_state[i] = env.state_vector()
+        self._component[i] = component
+        self._ret[i] = self._disc[i] = 0.0
+        self._discount[i] = 1.0
+        self._len[i] = 0
+        if i == self.num_envs - 1:
+            self._seeded = True
+
+    def step(self, actions: np.ndarray):
+        """Step every env; returns views of (obs, rewards, terminated, truncated, final_obs).
+
+        `final_obs[i]` is env i's observation after this step even when it was reset
+        (the true successor, for bootstrapping a truncated episode); `obs[i]` is the new
+        episode's first observation then.
+        """
+        for i, env in enumerate(self.envs):
+            _, reward, term, trunc, _ = env.step(actions[i])
+            env.observation_into(self.final_obs[i])
+            self.rewards[i], self.terminated[i], self.truncated[i] = reward, term, trunc
+            self._ret[i] += reward
+            self._disc[i] += self._discount[i] * reward
+            self._discount[i] *= self.gamma
+            self._len[i] += 1
+            if term or trunc:
+                self._record(i, term)
+                self._reset_env(i)
+            else:
+                self.obs[i] = self.final_obs[i]
+        return self.obs, self.rewards, self.terminated, self.truncated, self.final_obs
+
+    def _record(self, i: int, fell: bool) -> None:
+        env = self.envs[i]
+        max_return = env.max_reward * env.max_episode_steps
+        log = self.episodes
+        log.returns.append(self._ret[i])
+        log.normalized_returns.append(self._ret[i] / max_return)
+        log.discounted_returns.append(self._disc[i])
+        log.lengths.append(self._len[i])
+        log.fell.append(fell)
+        log.components.append(self._component[i])
+        log.initial_states.append(self._init_state[i].copy())
