@@ -1,0 +1,117 @@
+"""The rollout worker: M imitation envs, batched policy inference, trajectories out.
+
+One worker runs in its own process (a Ray actor in training; a plain object in the serial
+runner and in benchmarks). Each `sample` call takes the learner's newest weights, steps all
+envs `steps` times with one batched policy forward per step, and returns time-major numpy
+arrays. Initial states come from the ASI server (ASI, and the server's RSI/FSI) or, without
+a server, from the reference itself. Finished ASI episodes are reported back to the server
+at the end of the call (one batched RPC).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from actors.features import OBS_DIM
+from actors.imitation_env import EnvConfig
+from actors.initial_states import BufferedStarts, InitialStates, ReferenceStarts
+from actors.motion import ReferenceMotion
+from actors.policy import NumpyPolicy
+from actors.vector_env import VectorImitationEnv
+
+
+@dataclass(frozen=True)
+class WorkerSpec:
+    """Everything a worker needs to build itself (picklable; Ray re-runs it on restart)."""
+
+    motion: ReferenceMotion
+    env: EnvConfig
+    num_envs: int
+    init: str  # "asi", "rsi" or "fsi"
+    seed: int
+    gamma: float = 0.95
+    asi_address: str | None = None
+    asi_job: str | None = None
+    asi_token: str | None = None
+    start_batch: int = 64
+
+
+class _ServerStarts:
+    """Starts drawn from the ASI server (any mode)."""
+
+    def __init__(self, client, mode: str):
+        self.client, self.mode = client, mode
+
+    def __call__(self, count: int) -> InitialStates:
+        reply = self.client.sample(self.mode, count)
+        return InitialStates(reply.phases, np.asarray(reply.components, np.int64), reply.states.astype(np.float64))
+
+
+class RolloutWorker:
+    def __init__(self, spec: WorkerSpec, worker_index: int = 0):
+        self.spec = spec
+        self.worker_index = worker_index
+        self.seed = spec.seed + worker_index  # RLlib's convention: base seed + worker index
+        self.rng = np.random.default_rng(self.seed)
+        self.client = None
+        if spec.asi_address:
+            from actors.asi_client import ASIClient  # gRPC only where a server is used
+
+            self.client = ASIClient(spec.asi_address, spec.asi_job, token=spec.asi_token)
+            source = _ServerStarts(self.client, spec.init)
+        else:
+            if spec.init == "asi":
+                raise ValueError("init 'asi' needs an ASI server address")
+            source = ReferenceStarts(spec.init, self.rng)
+        self.env = VectorImitationEnv(spec.motion, spec.env, spec.num_envs, BufferedStarts(source, spec.start_batch), seed=self.seed * 1000, gamma=spec.gamma)
+        self.policy: NumpyPolicy | None = None
+        self._started = False
+        self.asi_version = 0
+
+    @property
+    def action_dim(self) -> int:
+        return self.env.action_dim
+
+    def ping(self) -> int:
+        return self.worker_index
+
+    def sample(self, weights: dict, policy_version: int, steps: int) -> dict[str, np.ndarray]:
+        """Roll all envs forward `steps` control steps with the given policy weights."""
+        t0 = time.perf_counter()
+        if self.policy is None:
+            self.policy = NumpyPolicy(weights, max_batch=self.spec.num_envs)
+        else:
+            self.policy.load_weights(weights)
+        env, m = self.env, self.spec.num_envs
+        if not self._started:
+            env.reset()
+            self._started = True
+        batch = {
+            "obs": np.empty((steps, m, OBS_DIM), np.float32),
+            "next_obs": np.empty((steps, m, OBS_DIM), np.float32),
+            "actions": np.empty((steps, m, env.action_dim), np.float32),
+            "logp": np.empty((steps, m), np.float32),
+            "rewards": np.empty((steps, m), np.float32),
+            "terminated": np.empty((steps, m), bool),
+            "truncated": np.empty((steps, m), bool),
+        }
+        for t in range(steps):
+            batch["obs"][t] = env.obs
+            self.policy.act(env.obs, self.rng, out_actions=batch["actions"][t], out_logp=batch["logp"][t])
+            _, rewards, terminated, truncated, final_obs = env.step(batch["actions"][t])
+            batch["next_obs"][t] = final_obs
+            batch["rewards"][t] = rewards
+            batch["terminated"][t] = terminated
+            batch["truncated"][t] = truncated
+        episodes = env.episodes.drain()
+        if self.client is not None and self.spec.init == "asi" and len(episodes["components"]):
+            self.asi_version = self.client.report(episodes["initial_states"], episodes["components"], episodes["discounted_returns"], policy_version)
+        batch.update({f"episode_{k}": v for k, v in episodes.items() if k != "initial_states"})
+        batch["policy_version"] = np.array(policy_version)
+        batch["worker_index"] = np.array(self.worker_index)
+        batch["asi_version"] = np.array(self.asi_version)
+        batch["asi_dropped_reports"] = np.array(self.client.dropped_reports if self.client else 0)
+        batch["sample_seconds"] = np.array(time.perf_counter() - t0)
+        return batch

@@ -1,0 +1,55 @@
+"""The ASI server a training run talks to: an external one, or one embedded in the driver.
+
+Without `--asi-address` the driver starts the server in-process (in-memory store, or Redis
+with `--redis-url`) on a free port of `asi_host` (loopback by default). With a Ray cluster
+and no external server, bind `--asi-host` to the head's cluster-network address so that
+workers on other nodes reach it, or run `sfv asi-server` on its own.
+A shared token, when set in SFV_ASI_TOKEN, is required by the server and sent by clients.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from actors.asi_client import ASIClient
+from services.train_config import TrainConfig
+
+
+class ASIConnection:
+    def __init__(self, config: TrainConfig):
+        self.config = config
+        self.token = os.environ.get("SFV_ASI_TOKEN") or None
+        self._server = None
+        self.address = config.asi_address
+        self.client: ASIClient | None = None
+
+    def __enter__(self) -> "ASIConnection":
+        if self.address is None:
+            from services.asi.server import serve
+            from services.asi.store import InMemoryStore
+
+            if self.config.redis_url:
+                from services.asi.redis_store import RedisStore
+
+                store = RedisStore(self.config.redis_url)
+            else:
+                store = InMemoryStore()
+            self._server, _ = serve(0, store, host=self.config.asi_host, token=self.token)
+            self.address = self._server.address
+        self.client = ASIClient(self.address, self.config.job_id, token=self.token)
+        self.client.wait_until_ready(timeout=15.0)
+        return self
+
+    def create_job(self, reference_states: np.ndarray, reference_phases: np.ndarray):
+        c = self.config
+        return self.client.create_job(
+            reference_states, reference_phases, num_components=c.asi_components,
+            step_size=c.asi_step_size, episodes_per_update=c.asi_episodes_per_update,
+        )
+
+    def __exit__(self, *exc) -> None:
+        if self.client is not None:
+            self.client.close()
+        if self._server is not None:
+            self._server.stop(1.0).wait()

@@ -1,0 +1,78 @@
+"""`sfv train`: PPO imitation of one motion with rollout workers and an ASI server."""
+from __future__ import annotations
+
+import json
+import logging
+
+from services.run_dir import CONFIG_FILE
+from services.train_config import INIT_MODES, TrainConfig
+
+
+def register(sub) -> None:
+    p = sub.add_parser("train", help="train a controller that imitates a motion")
+    p.add_argument("--motion", default="deepmimic:walk", help="motion name (deepmimic:walk) or file (.npz / DeepMimic .txt)")
+    p.add_argument("--workers", type=int, default=2, help="rollout workers (Ray actors)")
+    p.add_argument("--envs-per-worker", type=int, default=16, help="envs per worker, batched policy inference")
+    p.add_argument("--init", choices=INIT_MODES, default="asi", help="initial state distribution")
+    p.add_argument("--samples", type=int, default=200_000, help="total environment steps")
+    p.add_argument("--out", required=True, help="run directory")
+    p.add_argument("--ray-address", default=None, help="join a Ray cluster ('auto' or host:port); local Ray when absent")
+    p.add_argument("--asi-address", default=None, help="host:port of an `sfv asi-server`; embedded when absent")
+    p.add_argument("--asi-host", default="127.0.0.1", help="interface the embedded ASI server binds")
+    p.add_argument("--redis-url", default=None, help="Redis store for the embedded ASI server")
+    p.add_argument("--resume", action="store_true", help="continue from the newest checkpoint in --out")
+    p.add_argument("--seed", type=int, default=0, help="base seed (worker i: seed + i)")
+    p.add_argument("--serial", action="store_true", help="run workers in this process without Ray")
+    p.add_argument("--batch-size", type=int, default=None, help="samples per PPO iteration (default 4096, the paper's)")
+    p.add_argument("--physics-hz", type=float, default=None, help="physics rate (default 300)")
+    p.add_argument("--no-early-termination", action="store_true", help="keep episodes going after a fall (rolls, getups)")
+    p.add_argument("--asi-components", type=int, default=10, help="k, Gaussian components of the ASI distribution")
+    p.add_argument("--asi-episodes-per-update", type=int, default=2000, help="episodes per ASI gradient step (paper: 2000)")
+    p.add_argument("--checkpoint-every", type=int, default=None, help="iterations between checkpoints")
+    p.add_argument("--device", default="cpu", help="torch device of the learner")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(handler=run)
+
+
+def build_config(args) -> TrainConfig:
+    import dataclasses
+    from pathlib import Path
+
+    from actors.humanoid import PhysicsConfig
+
+    saved = Path(args.out) / CONFIG_FILE
+    if args.resume and saved.exists():
+        config = TrainConfig.from_dict(json.loads(saved.read_text()))
+        config.samples = args.samples
+        config.ray_address, config.asi_address, config.redis_url = args.ray_address, args.asi_address, args.redis_url
+        config.serial, config.device = args.serial, args.device
+        return config
+    config = TrainConfig(
+        motion=args.motion, out=args.out, workers=args.workers, envs_per_worker=args.envs_per_worker,
+        init=args.init, samples=args.samples, seed=args.seed, ray_address=args.ray_address,
+        asi_address=args.asi_address, asi_host=args.asi_host, redis_url=args.redis_url, serial=args.serial, device=args.device,
+        asi_components=args.asi_components, asi_episodes_per_update=args.asi_episodes_per_update,
+    )
+    if args.batch_size:
+        config.ppo.batch_size = args.batch_size
+        config.ppo.minibatch_size = min(config.ppo.minibatch_size, args.batch_size)
+    if args.checkpoint_every:
+        config.checkpoint_every = args.checkpoint_every
+    env = config.env
+    if args.physics_hz:
+        env = dataclasses.replace(env, physics=PhysicsConfig(physics_hz=args.physics_hz))
+    if args.no_early_termination:
+        env = dataclasses.replace(env, early_termination=False)
+    config.env = env
+    return config
+
+
+def run(args) -> int:
+    from services.trainer import Trainer
+
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    config = build_config(args)
+    record = Trainer(config, resume=args.resume, progress=not args.quiet).run()
+    summary = {k: record.get(k) for k in ("iteration", "samples", "normalized_return", "episode_length", "asi_version", "overall_samples_per_s")}
+    print(json.dumps({"run": str(config.out), **summary}))
+    return 0

@@ -1,0 +1,66 @@
+"""Configuration of one training run (`sfv train`), saved resolved in the run directory."""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+from actors.humanoid import PhysicsConfig
+from actors.imitation_env import EnvConfig
+from actors.reward import RewardConfig
+from learner.config import PPOConfig
+
+INIT_MODES = ("asi", "rsi", "fsi")
+
+
+@dataclass
+class TrainConfig:
+    motion: str = field(default="deepmimic:walk", metadata={"help": "motion to imitate: a name (deepmimic:walk) or a .npz / DeepMimic file"})
+    out: str = field(default="runs/walk", metadata={"help": "run directory: config, metrics.jsonl, TensorBoard events, checkpoints"})
+    workers: int = field(default=2, metadata={"help": "rollout workers (Ray actors, one process each)"})
+    envs_per_worker: int = field(default=16, metadata={"help": "envs per worker, stepped together with one batched policy forward"})
+    init: str = field(default="asi", metadata={"help": "initial states: asi (learned), rsi (random reference frame) or fsi (first frame)"})
+    samples: int = field(default=200_000, metadata={"help": "stop after this many environment steps in total"})
+    seed: int = field(default=0, metadata={"help": "base seed; worker i uses seed + i"})
+    ray_address: str | None = field(default=None, metadata={"help": "Ray cluster to join ('auto' or host:port); local single-node Ray when absent"})
+    asi_address: str | None = field(default=None, metadata={"help": "host:port of a running `sfv asi-server`; an embedded server when absent"})
+    asi_host: str = field(default="127.0.0.1", metadata={"help": "interface the embedded ASI server binds (0.0.0.0 only inside a private cluster network)"})
+    redis_url: str | None = field(default=None, metadata={"help": "Redis URL for the embedded ASI server's store (in-memory when absent)"})
+    asi_components: int = field(default=10, metadata={"help": "k, Gaussian components of the ASI distribution"})
+    asi_episodes_per_update: int = field(default=2000, metadata={"help": "episodes reported per ASI gradient step (paper: 2000)"})
+    asi_step_size: float = field(default=0.001, metadata={"help": "ASI step size alpha_rho (paper: 0.001)"})
+    job_id: str | None = field(default=None, metadata={"help": "ASI job id; derived from the run directory when absent"})
+    checkpoint_every: int = field(default=10, metadata={"help": "iterations between checkpoints (and at the end)"})
+    keep_checkpoints: int = field(default=3, metadata={"help": "newest checkpoints kept on disk"})
+    serial: bool = field(default=False, metadata={"help": "run the workers in this process, without Ray (debugging, CI, GPU hosts without Ray)"})
+    device: str = field(default="cpu", metadata={"help": "torch device of the learner"})
+    worker_timeout_s: float = field(default=300.0, metadata={"help": "give up on a worker's batch after this long and hand it to another"})
+    plot_every: int = field(default=5, metadata={"help": "iterations between redraws of the learning-curve PNG (0: never)"})
+    env: EnvConfig = field(default_factory=EnvConfig)
+    ppo: PPOConfig = field(default_factory=PPOConfig)
+
+    def validate(self) -> None:
+        from actors.errors import SfvError
+
+        if self.init not in INIT_MODES:
+            raise SfvError(f"--init must be one of {', '.join(INIT_MODES)}, got {self.init!r}")
+        for name in ("workers", "envs_per_worker", "samples", "asi_components", "asi_episodes_per_update", "checkpoint_every"):
+            if getattr(self, name) <= 0:
+                raise SfvError(f"--{name.replace('_', '-')} must be positive, got {getattr(self, name)}")
+
+    @property
+    def steps_per_worker(self) -> int:
+        """Control steps each worker takes per iteration so that the batch is >= batch_size."""
+        envs = self.workers * self.envs_per_worker
+        return max(1, -(-self.ppo.batch_size // envs))
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "TrainConfig":
+        d = dict(d)
+        env = dict(d.pop("env", {}))
+        physics = PhysicsConfig(**env.pop("physics", {}))
+        reward = RewardConfig(**env.pop("reward", {}))
+        ppo = PPOConfig.from_dict(d.pop("ppo", {}))
+        return cls(**d, env=EnvConfig(physics=physics, reward=reward, **env), ppo=ppo)
