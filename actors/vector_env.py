@@ -30,13 +30,15 @@ class EpisodeLog:
     fell: list = field(default_factory=list)
     components: list = field(default_factory=list)
     initial_states: list = field(default_factory=list)
+    state_dim: int = 0
 
     def drain(self) -> dict[str, np.ndarray]:
-        out = {k: np.asarray(v, dtype=np.float32 if k != "components" else np.int64) for k, v in self.__dict__.items() if k != "initial_states"}
+        out = {k: np.asarray(v, dtype=np.float32 if k != "components" else np.int64) for k, v in self.__dict__.items() if k not in ("initial_states", "state_dim")}
         out["fell"] = out["fell"].astype(bool)
-        out["initial_states"] = np.asarray(self.initial_states, dtype=np.float32).reshape(len(self.initial_states), -1)
+        out["initial_states"] = np.array(self.initial_states, dtype=np.float32).reshape(len(self.initial_states), self.state_dim)
         for v in self.__dict__.values():
-            v.clear()
+            if isinstance(v, list):
+                v.clear()
         return out
 
 
@@ -61,7 +63,7 @@ class VectorImitationEnv:
         self._len = np.zeros(num_envs, dtype=np.int64)
         self._component = np.full(num_envs, -1, dtype=np.int64)
         self._init_state = np.zeros((num_envs, self.state_dim))
-        self.episodes = EpisodeLog()
+        self.episodes = EpisodeLog(state_dim=self.state_dim)
         self._seed = seed
         self._seeded = False
 

@@ -1,0 +1,180 @@
+"""The ASI initial-state distribution: k diagonal Gaussians at fixed phases (pure numpy).
+
+rho_omega(s) = p(phi) * N(s | mu_c, diag(sigma_c^2)), with p(phi) uniform over the k
+fixed phases phi_c (SFV §9). The parameters omega are the means mu (k, D) and the
+log standard deviations log_sigma (k, D); log-std keeps sigma positive under a
+gradient step.
+
+Gradient of the log-density of one state s drawn from component c (z = (s - mu_c) / sigma_c):
+    d log rho / d mu_c        = (s - mu_c) / sigma_c^2 = z / sigma_c
+    d log rho / d log sigma_c = (s - mu_c)^2 / sigma_c^2 - 1 = z^2 - 1
+(log N = -sum_d [log sigma_d + (s_d - mu_d)^2 / (2 sigma_d^2)] + const; differentiate
+in mu_d, and in log sigma_d using d sigma_d^-2 / d log sigma_d = -2 sigma_d^-2.)
+The derivatives with respect to any other component are zero.
+
+One update (Supplementary A, one step per batch of N episodes):
+    omega += alpha * (1/N) * sum_e grad_omega log rho(s0_e) * (R0_e - b_{c_e})
+The mean is over ALL N episodes of the batch, so each component's step is its own
+episodes' sum divided by N -- the unbiased estimate of grad J. The baseline b_c is
+the batch's mean return of the episodes from component c (a per-phase control
+variate: returns differ strongly along the motion, so a single global baseline
+would push every component toward or away from the phases that are easy anyway);
+Baseline "none" uses b = 0 as in Algorithm 1.
+
+Safeguards (switchable, documented in services/asi/README.md):
+- max_step_fraction f > 0 clips every coordinate of the mean step to |d mu| <= f * sigma
+  and of the log-std step to |d log sigma| <= f (sigma changes by at most a factor e^f).
+  With a small sigma the raw mean step alpha * z / sigma * (R - b) can jump many
+  sigmas in one update; f = 0 applies the raw step.
+- sigma is floored at min_std so a collapsing component can still explore.
+- a step that would produce a non-finite parameter is rejected (the batch is consumed).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+BASELINES = ("component_mean", "none")
+
+
+@dataclass(frozen=True)
+class UpdateConfig:
+    step_size: float = field(default=1e-3, metadata={"help": "alpha_rho, the ASI step size (paper: 0.001)"})
+    episodes_per_update: int = field(default=2000, metadata={"help": "episodes per gradient step (paper: 2000)"})
+    max_step_fraction: float = field(
+        default=0.5, metadata={"help": "clip |d mu| to this fraction of sigma and |d log sigma| to it; 0 = raw step"})
+    min_std: float = field(default=1e-3, metadata={"help": "floor on every standard deviation"})
+    baseline: str = field(default="component_mean", metadata={"help": "'component_mean' or 'none'"})
+
+
+@dataclass(frozen=True)
+class Gradient:
+    means: np.ndarray      # (k, D) d J / d mu
+    log_stds: np.ndarray   # (k, D) d J / d log sigma
+
+
+class InitialStateDistribution:
+    """k diagonal Gaussians over a D-dimensional state, one per fixed phase."""
+
+    def __init__(self, phases: np.ndarray, means: np.ndarray, log_stds: np.ndarray):
+        self.phases = np.asarray(phases, dtype=np.float64).reshape(-1)
+        self.means = np.asarray(means, dtype=np.float64)
+        self.log_stds = np.asarray(log_stds, dtype=np.float64)
+        k = self.phases.shape[0]
+        if self.means.ndim != 2 or self.means.shape[0] != k or self.log_stds.shape != self.means.shape:
+            raise ValueError(f"means {self.means.shape} and log_stds {self.log_stds.shape} must both be ({k}, D)")
+
+    @property
+    def num_components(self) -> int:
+        return self.means.shape[0]
+
+    @property
+    def state_dim(self) -> int:
+        return self.means.shape[1]
+
+    @property
+    def stds(self) -> np.ndarray:
+        return np.exp(self.log_stds)
+
+    @classmethod
+    def from_reference(cls, reference_states: np.ndarray, reference_phases: np.ndarray,
+                       num_components: int = 10, phases: np.ndarray | None = None,
+                       min_std: float = 1e-3) -> "InitialStateDistribution":
+        """Paper's initialisation: mean = reference state at phi_i, std = per-dim sample std.
+
+        The state is opaque (it may hold quaternions), so the reference state "at phi_i"
+        is the frame whose phase is nearest, not an interpolation.
+        """
+        reference_states = np.asarray(reference_states, dtype=np.float64)
+        phases = evenly_spaced_phases(num_components) if phases is None else np.asarray(phases, np.float64)
+        means = reference_states[nearest_frames(np.asarray(reference_phases, np.float64), phases)]
+        stds = np.broadcast_to(reference_std(reference_states, min_std), means.shape)
+        return cls(phases, means, np.log(stds))
+
+    def sample(self, rng: np.random.Generator, count: int) -> tuple[np.ndarray, np.ndarray]:
+        """Draw `count` states: component uniform over k, then the component's Gaussian.
+
+        Returns (states (count, D) float32, components (count,) int32).
+        """
+        components = rng.integers(self.num_components, size=count).astype(np.int32)
+        # Drawn and shifted in float32, the output dtype: no float64 copy of a (count, D) batch.
+        states = rng.standard_normal((count, self.state_dim), dtype=np.float32)
+        states *= self.stds.astype(np.float32)[components]
+        states += self.means.astype(np.float32)[components]
+        return states, components
+
+    def log_prob(self, states: np.ndarray, components: np.ndarray) -> np.ndarray:
+        """log rho(s) = log(1/k) + log N(s | mu_c, sigma_c^2), per row."""
+        states = np.asarray(states, dtype=np.float64)
+        mu, log_sigma = self.means[components], self.log_stds[components]
+        z = (states - mu) * np.exp(-log_sigma)
+        log_normal = -0.5 * np.sum(z * z, axis=1) - np.sum(log_sigma, axis=1) - 0.5 * self.state_dim * np.log(2 * np.pi)
+        return log_normal - np.log(self.num_components)
+
+    def gradient(self, states: np.ndarray, components: np.ndarray, returns: np.ndarray,
+                 baseline: str = "component_mean") -> Gradient:
+        """(1/N) sum_e grad log rho(s_e) * (R_e - b_{c_e}) for means and log-stds."""
+        states = np.asarray(states, dtype=np.float64)
+        components = np.asarray(components, dtype=np.intp)
+        returns = np.asarray(returns, dtype=np.float64)
+        n = states.shape[0]
+        advantages = returns - component_baseline(returns, components, self.num_components, baseline)
+        inv_sigma = np.exp(-self.log_stds)[components]
+        z = (states - self.means[components]) * inv_sigma
+        weighted_z = z * advantages[:, None]
+        # Scatter-add each episode's term onto its own component's row.
+        grad_means = np.zeros_like(self.means)
+        grad_log_stds = np.zeros_like(self.log_stds)
+        np.add.at(grad_means, components, weighted_z * inv_sigma)
+        np.add.at(grad_log_stds, components, weighted_z * z - advantages[:, None])
+        return Gradient(grad_means / n, grad_log_stds / n)
+
+    def apply_update(self, states: np.ndarray, components: np.ndarray, returns: np.ndarray,
+                     config: UpdateConfig) -> "InitialStateDistribution":
+        """One policy-gradient ascent step on (mu, log sigma); returns the new distribution.
+
+        Returns `self` unchanged if the step would produce a non-finite parameter.
+        """
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow is caught by the finiteness check below
+            grad = self.gradient(states, components, returns, config.baseline)
+            step_means = config.step_size * grad.means
+            step_log_stds = config.step_size * grad.log_stds
+        if config.max_step_fraction > 0:
+            limit = config.max_step_fraction * self.stds
+            step_means = np.clip(step_means, -limit, limit)
+            step_log_stds = np.clip(step_log_stds, -config.max_step_fraction, config.max_step_fraction)
+        means = self.means + step_means
+        log_stds = np.maximum(self.log_stds + step_log_stds, np.log(config.min_std))
+        if not (np.all(np.isfinite(means)) and np.all(np.isfinite(log_stds))):
+            return self
+        return InitialStateDistribution(self.phases, means, log_stds)
+
+
+def evenly_spaced_phases(num_components: int) -> np.ndarray:
+    """phi_i = i / k, i = 0 .. k-1."""
+    return np.arange(num_components, dtype=np.float64) / num_components
+
+
+def nearest_frames(reference_phases: np.ndarray, phases: np.ndarray) -> np.ndarray:
+    """Index of the reference frame whose phase is closest to each phase (ties -> earlier frame)."""
+    return np.argmin(np.abs(reference_phases[None, :] - phases[:, None]), axis=1)
+
+
+def reference_std(reference_states: np.ndarray, min_std: float) -> np.ndarray:
+    """Per-dimension sample std (ddof=1) of the clip's states, floored at min_std."""
+    ddof = 1 if reference_states.shape[0] > 1 else 0
+    return np.maximum(np.std(reference_states, axis=0, ddof=ddof), min_std)
+
+
+def component_baseline(returns: np.ndarray, components: np.ndarray, num_components: int,
+                       baseline: str) -> np.ndarray:
+    """Per-episode baseline b_{c_e}: the mean return of its component in this batch (or 0)."""
+    if baseline == "none":
+        return np.zeros_like(returns)
+    if baseline != "component_mean":
+        raise ValueError(f"unknown baseline {baseline!r}; expected one of {BASELINES}")
+    sums = np.bincount(components, weights=returns, minlength=num_components)
+    counts = np.bincount(components, minlength=num_components)
+    means = sums / np.maximum(counts, 1)
+    return means[components]
