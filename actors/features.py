@@ -1,19 +1,22 @@
 """Kinematic features of a MuJoCo humanoid state, shared by observations and rewards.
 
 Both the simulated character and the reference (set into a scratch MjData) go through the
-same functions, so a perfect tracking gives exactly equal features.
+same functions, so a perfect tracking gives exactly equal features. Everything writes into
+preallocated buffers: this runs once per control step per env.
 """
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
 from actors.humanoid import Humanoid
-from actors.skeleton import END_EFFECTOR_LINKS, HINGE_AXIS, NUM_LINKS
+from actors.skeleton import END_EFFECTOR_LINKS, NUM_LINKS
 from actors.state import StateLayout
 
 OBS_DIM = 1 + NUM_LINKS * (3 + 4 + 3 + 3) + 1  # 197: height, link pos/rot/lin vel/ang vel, phase
-NUM_REWARD_ROTATIONS = 13  # root (world) + 12 joints (local)
+NUM_REWARD_QUATS = 9  # root (world) + 8 ball joints (local); the 4 hinges compare angles
 
 
 def update_kinematics(model: mujoco.MjModel, data: mujoco.MjData) -> None:
@@ -27,8 +30,8 @@ def update_kinematics(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     mujoco.mj_comVel(model, data)
 
 
-def yaw_matrix_inverse(root_xmat: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """Rotation (3x3) from world into the character's heading frame (row vectors: v @ out)."""
+def yaw_matrix(root_xmat: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """M with v_heading = v_world @ M: the inverse of the root's yaw (Z up)."""
     fx, fy = root_xmat[0], root_xmat[3]  # world x, y of the root's +x axis
     norm = np.hypot(fx, fy) or 1.0
     c, s = fx / norm, fy / norm
@@ -37,56 +40,102 @@ def yaw_matrix_inverse(root_xmat: np.ndarray, out: np.ndarray) -> np.ndarray:
     return out
 
 
+@dataclass
+class RewardFeatures:
+    """What the reward compares: 9 quaternions, 4 hinge angles, the 31 angular velocity
+    coordinates of qvel (root and ball joints in local frames, hinge rates), the 4 end
+    effectors relative to the root in the heading frame, and the world centre of mass."""
+
+    quats: np.ndarray  # (..., 9, 4)
+    hinges: np.ndarray  # (..., 4)
+    ang_vel: np.ndarray  # (..., nv - 3)
+    end_effectors: np.ndarray  # (..., 4, 3)
+    com: np.ndarray  # (..., 3)
+
+    @classmethod
+    def zeros(cls, nv: int, rows: tuple = ()) -> "RewardFeatures":
+        return cls(np.zeros(rows + (NUM_REWARD_QUATS, 4)), np.zeros(rows + (4,)), np.zeros(rows + (nv - 3,)), np.zeros(rows + (4, 3)), np.zeros(rows + (3,)))
+
+    def row(self, k: int) -> "RewardFeatures":
+        return RewardFeatures(self.quats[k], self.hinges[k], self.ang_vel[k], self.end_effectors[k], self.com[k])
+
+
 class FeatureExtractor:
-    """Computes the 197-D observation and the reward's kinematic terms into fixed buffers."""
+    """Computes the 197-D observation and the reward's features into fixed buffers."""
 
     def __init__(self, humanoid: Humanoid):
         self.model = humanoid.model
         self.layout = StateLayout(humanoid)
-        self.body_ids = humanoid.body_ids
         self.root_body = int(humanoid.body_ids[0])
         self.ee_body_ids = humanoid.body_ids[END_EFFECTOR_LINKS]
+        self.quat_qpos = np.concatenate((np.arange(3, 7)[None], self.layout.ball_qpos))  # (9, 4)
+        n = NUM_LINKS
+        self._links = slice(1, 1 + n)  # bodies 1..15 (see Humanoid)
         self._yaw = np.zeros((3, 3))
-        self._joint_quats = np.zeros((12, 4))
+        self._rel = np.zeros((n, 3))
+        self._lever = np.zeros((n, 3))
+        self._lin = np.zeros((n, 3))
+        self._tmp = np.zeros((n, 3))
+        self._left = np.zeros((4, 4))  # right-multiplied matrix form of q_h^-1 * q
+        self._ee = np.zeros((4, 3))
+        self._pos_slice = slice(1, 1 + 3 * n)
+        self._rot_slice = slice(1 + 3 * n, 1 + 7 * n)
+        self._lin_slice = slice(1 + 7 * n, 1 + 10 * n)
+        self._ang_slice = slice(1 + 10 * n, 1 + 13 * n)
 
     # ----------------------------------------------------------------- observation
     def observation(self, data: mujoco.MjData, phase: float, out: np.ndarray) -> np.ndarray:
         """State features of SFV §9 / DeepMimic in the heading frame, plus the phase."""
-        pos = data.xpos[self.body_ids]
-        quat = data.xquat[self.body_ids]
-        cvel = data.cvel[self.body_ids]
-        root = pos[0].copy()
-        yaw = yaw_matrix_inverse(data.xmat[self.root_body], self._yaw)
-        c, s = yaw[0, 0], yaw[1, 0]
         n = NUM_LINKS
+        pos, quat, cvel = data.xpos[self._links], data.xquat[self._links], data.cvel[self._links]
+        root = data.xpos[self.root_body]
+        yaw = yaw_matrix(data.xmat[self.root_body], self._yaw)
         out[0] = root[2]
-        pos -= root
-        out[1 : 1 + 3 * n] = (pos @ yaw).ravel()
-        # Heading-frame rotation: q_h^-1 * q, with q_h^-1 = (cos(th/2), 0, 0, -sin(th/2)).
-        half_c, half_s = np.sqrt(0.5 * (1 + c)), np.copysign(np.sqrt(0.5 * (1 - c)), s)
-        w, x, y, z = quat[:, 0], quat[:, 1], quat[:, 2], quat[:, 3]
-        rot = np.stack((half_c * w + half_s * z, half_c * x + half_s * y, half_c * y - half_s * x, half_c * z - half_s * w), axis=1)
-        rot *= np.where(rot[:, :1] < 0, -1.0, 1.0)  # one sign per rotation: q and -q are the same
-        out[1 + 3 * n : 1 + 7 * n] = rot.ravel()
-        ang = cvel[:, :3]
-        # cvel's linear part is at the subtree centre of mass; move it to each body's origin.
-        lin = cvel[:, 3:] + np.cross(ang, pos + (root - data.subtree_com[self.root_body]))
-        out[1 + 7 * n : 1 + 10 * n] = (lin @ yaw).ravel()
-        out[1 + 10 * n : 1 + 13 * n] = (ang @ yaw).ravel()
+        rel = np.subtract(pos, root, out=self._rel)
+        np.matmul(rel, yaw, out=out[self._pos_slice].reshape(n, 3))
+        self._heading_rotations(quat, yaw[0, 0], yaw[1, 0], out[self._rot_slice].reshape(n, 4))
+        # cvel is (angular, linear at the subtree centre of mass); move the linear part to
+        # each body's origin: v = v_com + w x (p - com).
+        ang, lin_com = cvel[:, :3], cvel[:, 3:]
+        lever = np.add(rel, root - data.subtree_com[self.root_body], out=self._lever)
+        lin = self._cross(ang, lever, self._lin)
+        lin += lin_com
+        np.matmul(lin, yaw, out=out[self._lin_slice].reshape(n, 3))
+        np.matmul(ang, yaw, out=out[self._ang_slice].reshape(n, 3))
         out[-1] = phase
         return out
 
+    def _heading_rotations(self, quat: np.ndarray, c: float, s: float, out: np.ndarray) -> None:
+        """q_h^-1 * q for the yaw q_h = (cos th/2, 0, 0, sin th/2), one sign per rotation.
+
+        Left-multiplying by a fixed quaternion is linear, so it is one (15,4)@(4,4) product.
+        """
+        hc = np.sqrt(0.5 * (1.0 + c))
+        hs = np.copysign(np.sqrt(max(0.5 * (1.0 - c), 0.0)), s)
+        m = self._left
+        m[0, 0] = m[1, 1] = m[2, 2] = m[3, 3] = hc
+        m[3, 0], m[2, 1], m[1, 2], m[0, 3] = hs, hs, -hs, -hs
+        np.matmul(quat, m, out=out)
+        negative = out[:, 0] < 0
+        if negative.any():
+            out[negative] *= -1.0  # q and -q are the same rotation
+
+    def _cross(self, a: np.ndarray, b: np.ndarray, out: np.ndarray) -> np.ndarray:
+        tmp = self._tmp
+        for i, (j, k) in enumerate(((1, 2), (2, 0), (0, 1))):
+            np.multiply(a[:, j], b[:, k], out=out[:, i])
+            np.multiply(a[:, k], b[:, j], out=tmp[:, i])
+        out -= tmp
+        return out
+
     # ------------------------------------------------------------------- reward terms
-    def reward_features(self, data: mujoco.MjData, rotations: np.ndarray, ang_vel: np.ndarray, end_effectors: np.ndarray, com: np.ndarray) -> None:
-        """Fill (13,4) rotations, (13,3) local angular velocities, (4,3) heading-frame
-        end-effector positions relative to the root, and the world centre of mass."""
-        layout = self.layout
-        qpos, qvel = data.qpos, data.qvel
-        rotations[0] = qpos[3:7]
-        layout.joint_quats_from_qpos(qpos, rotations[1:])
-        ang_vel[0] = qvel[3:6]
-        ang_vel[1 + layout.spherical] = qvel[layout.ball_dof]
-        ang_vel[1 + layout.revolute] = qvel[layout.hinge_dof][:, None] * HINGE_AXIS
-        yaw = yaw_matrix_inverse(data.xmat[self.root_body], self._yaw)
-        end_effectors[:] = (data.xpos[self.ee_body_ids] - data.xpos[self.root_body]) @ yaw
-        com[:] = data.subtree_com[self.root_body]
+    def reward_features(self, data: mujoco.MjData, out: RewardFeatures) -> RewardFeatures:
+        qpos = data.qpos
+        out.quats[:] = qpos[self.quat_qpos]
+        out.hinges[:] = qpos[self.layout.hinge_qpos]
+        out.ang_vel[:] = data.qvel[3:]
+        yaw = yaw_matrix(data.xmat[self.root_body], self._yaw)
+        np.subtract(data.xpos[self.ee_body_ids], data.xpos[self.root_body], out=self._ee)
+        np.matmul(self._ee, yaw, out=out.end_effectors)
+        out.com[:] = data.subtree_com[self.root_body]
+        return out

@@ -81,8 +81,11 @@ def _body_xml(index: int, config: PhysicsConfig, indent: str) -> str:
 
 
 def _actuators_xml() -> str:
+    """Actuators of all spherical joints first (x, y, z each), then the revolute joints, so
+    that the controls split into contiguous (8, 3) and (4,) blocks without gathering."""
     lines = []
-    for index in JOINT_LINKS:
+    order = [i for i in JOINT_LINKS if LINKS[i].joint == "spherical"] + [i for i in JOINT_LINKS if LINKS[i].joint == "revolute"]
+    for index in order:
         link = LINKS[index]
         gains = f'kp="{link.kp}" kv="{link.kd}" forcerange="{-link.torque_limit} {link.torque_limit}"'
         if link.joint == "spherical":
@@ -129,6 +132,9 @@ class Humanoid:
         self.joint_qpos_adr = m.jnt_qposadr[joint_ids].copy()
         self.joint_dof_adr = m.jnt_dofadr[joint_ids].copy()
         self.fall_geom_ids = np.array([m.body_geomadr[self.body_ids[i]] for i in FALL_CONTACT_LINKS])
+        # MuJoCo numbers bodies depth-first, so the 15 links are bodies 1..15 (a contiguous
+        # slice of xpos / xquat / cvel) in an order other than the skeleton's.
+        assert sorted(self.body_ids) == list(range(1, len(LINKS) + 1))
         self.floor_geom_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
         self.num_actuators = m.nu
 

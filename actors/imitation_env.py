@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from actors.actions import ActionMapper
-from actors.features import NUM_REWARD_ROTATIONS, OBS_DIM, FeatureExtractor, update_kinematics
+from actors.features import OBS_DIM, FeatureExtractor, RewardFeatures, update_kinematics
 from actors.humanoid import Humanoid, PhysicsConfig
 from actors.motion import ReferenceMotion
 from actors.reference_track import ReferenceTrack
@@ -65,12 +65,10 @@ class ImitationEnv(gym.Env):
         self.state_dim = self.layout.state_dim
         # Per-step buffers: the hot path writes into these instead of allocating.
         self._obs = np.zeros(OBS_DIM, dtype=np.float64)
-        self._rot = np.zeros((NUM_REWARD_ROTATIONS, 4))
-        self._ang = np.zeros((NUM_REWARD_ROTATIONS, 3))
-        self._ee = np.zeros((4, 3))
-        self._com = np.zeros(3)
+        self._features = RewardFeatures.zeros(self.model.nv)
+        self._fall_mask = np.zeros(self.model.ngeom, dtype=bool)
+        self._fall_mask[self.humanoid.fall_geom_ids] = True
         self.reward_terms = np.zeros(4)
-        self._fall_geoms = self.humanoid.fall_geom_ids
         self._start = 0
         self._step = 0
         self._max_steps = 1
@@ -146,9 +144,8 @@ class ImitationEnv(gym.Env):
 
     def reward_at(self, row: int) -> float:
         """Reward of the current simulated state against the reference at `row`."""
-        t = self.track
-        self.features.reward_features(self.data, self._rot, self._ang, self._ee, self._com)
-        return self.reward_fn(self._rot, self._ang, self._ee, self._com, t.rotations[row], t.ang_vel[row], t.end_effectors[row], t.com[row], self.reward_terms)
+        sim = self.features.reward_features(self.data, self._features)
+        return self.reward_fn(sim, self.track.reward_features(row), self.reward_terms)
 
     # --------------------------------------------------------------------- internals
     def _observation(self) -> np.ndarray:
@@ -166,5 +163,4 @@ class ImitationEnv(gym.Env):
         ncon = self.data.ncon
         if ncon == 0:
             return False
-        geoms = self.data.contact.geom[:ncon]
-        return bool(np.isin(geoms, self._fall_geoms).any())
+        return bool(self._fall_mask[self.data.contact.geom].any())

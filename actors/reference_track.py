@@ -12,7 +12,7 @@ import math
 import mujoco
 import numpy as np
 
-from actors.features import NUM_REWARD_ROTATIONS, FeatureExtractor, update_kinematics
+from actors.features import FeatureExtractor, RewardFeatures, update_kinematics
 from actors.humanoid import Humanoid
 from actors.motion import ReferenceMotion
 from actors.state import StateLayout
@@ -39,10 +39,7 @@ class ReferenceTrack:
         model = humanoid.model
         self.qpos = np.zeros((rows, model.nq))
         self.qvel = np.zeros((rows, model.nv))
-        self.rotations = np.zeros((rows, NUM_REWARD_ROTATIONS, 4))
-        self.ang_vel = np.zeros((rows, NUM_REWARD_ROTATIONS, 3))
-        self.end_effectors = np.zeros((rows, 4, 3))
-        self.com = np.zeros((rows, 3))
+        self.features = RewardFeatures.zeros(model.nv, (rows,))
         scratch = mujoco.MjData(model)
         features = FeatureExtractor(humanoid)
         poses = motion.sample(times)
@@ -52,7 +49,19 @@ class ReferenceTrack:
             scratch.qpos[:] = self.qpos[k]
             scratch.qvel[:] = self.qvel[k]
             update_kinematics(model, scratch)
-            features.reward_features(scratch, self.rotations[k], self.ang_vel[k], self.end_effectors[k], self.com[k])
+            features.reward_features(scratch, self.features.row(k))
+        self._rows = [self.features.row(k) for k in range(rows)]  # views, built once
+
+    def reward_features(self, row: int) -> RewardFeatures:
+        return self._rows[row]
+
+    @property
+    def com(self) -> np.ndarray:
+        return self.features.com
+
+    @property
+    def end_effectors(self) -> np.ndarray:
+        return self.features.end_effectors
 
     @property
     def rows(self) -> int:
