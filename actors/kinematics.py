@@ -13,7 +13,7 @@ import torch
 
 from actors import quaternion as qn
 from actors import quaternion_torch as qt
-from actors.skeleton import HINGE_AXIS, LINK_JOINT, NUM_LINKS, OFFSETS, PARENTS, REVOLUTE_JOINTS, SPHERICAL_JOINTS
+from actors.skeleton import HINGE_AXIS, LINK_JOINT, NUM_LINKS, OFFSETS, PARENTS, REVOLUTE_JOINTS, SPHERICAL_JOINTS, revolute_angle  # noqa: F401 (re-export)
 
 
 def forward_kinematics(root_pos: np.ndarray, root_quat: np.ndarray, joint_quats: np.ndarray):
@@ -57,8 +57,3 @@ def joint_quats_from_params_torch(spherical_rotvecs: torch.Tensor, revolute_angl
     axis = torch.as_tensor(HINGE_AXIS, dtype=revolute_angles.dtype, device=revolute_angles.device)
     quats = quats.index_copy(-2, torch.as_tensor(SPHERICAL_JOINTS), qt.quat_from_axis_angle(spherical_rotvecs))
     return quats.index_copy(-2, torch.as_tensor(REVOLUTE_JOINTS), qt.quat_about_axis(revolute_angles, axis))
-
-
-def revolute_angle(quat: np.ndarray) -> np.ndarray:
-    """Signed angle about HINGE_AXIS of a quaternion that is (close to) such a rotation."""
-    return 2.0 * np.arctan2(quat[..., 1:] @ HINGE_AXIS, quat[..., 0])

@@ -25,7 +25,7 @@ import numpy as np
 
 from actors import quaternion as qn
 from actors.errors import MotionFormatError
-from actors.kinematics import revolute_angle
+from actors.skeleton import revolute_angle
 from actors.motion import ReferenceMotion
 from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, JOINT_NAMES, NUM_JOINTS
 
@@ -57,12 +57,15 @@ def resolve_motion_path(name_or_path: str) -> Path:
 def load_motion(name_or_path: str) -> ReferenceMotion:
     """Load a motion by name (`deepmimic:walk`) or path (.npz or DeepMimic JSON)."""
     path = resolve_motion_path(str(name_or_path))
-    with open(path, "rb") as f:
-        magic = f.read(4)
-    if magic.startswith(b"PK"):
-        motion = _load_npz(path)
-    else:
-        motion = _load_deepmimic(path)
+    try:
+        with open(path, "rb") as f:
+            magic = f.read(4)
+    except OSError as exc:
+        raise MotionFormatError(f"{path}: cannot read motion file ({exc.strerror or exc})") from None
+    # Overflow is detected after loading (`_check_derived`), so numpy need not warn about it.
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        motion = _load_npz(path) if magic.startswith(b"PK") else _load_deepmimic(path)
+    _check_derived(path, motion)
     if str(name_or_path).startswith("deepmimic:"):
         motion.name = str(name_or_path)
     return motion
@@ -77,20 +80,24 @@ def _check_finite(path, what: str, array: np.ndarray):
 
 
 def _unit_quats(path, what: str, q: np.ndarray) -> np.ndarray:
-    norm = np.linalg.norm(q, axis=-1, keepdims=True)
-    if (norm < 1e-6).any():
-        frame = int(np.argwhere(norm[..., 0] < 1e-6)[0][0])
+    # Scale by the largest component first: the norm of huge components would overflow.
+    largest = np.abs(q).max(axis=-1, keepdims=True)
+    if (largest < 1e-6).any():
+        frame = int(np.argwhere(largest[..., 0] < 1e-6)[0][0])
         raise MotionFormatError(f"{path}: {what} has a zero-length quaternion at frame {frame}")
-    return q / norm
+    q = q / largest
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
 
 def _check_times(path, frame_times: np.ndarray):
     if len(frame_times) < 2:
         raise MotionFormatError(f"{path}: a motion needs at least 2 frames, found {len(frame_times)}")
+    if not np.isfinite(frame_times).all():
+        raise MotionFormatError(f"{path}: frame times overflow (durations too large)")
     steps = np.diff(frame_times)
     if (steps <= 0).any():
         frame = int(np.argmax(steps <= 0))
-        raise MotionFormatError(f"{path}: frame durations must be positive (frame {frame} has {steps[frame]:.6g} s)")
+        raise MotionFormatError(f"{path}: frame times must increase (frame {frame + 1} is {steps[frame]:.6g} s after frame {frame})")
 
 
 # ----------------------------------------------------------------------- DeepMimic
@@ -112,10 +119,13 @@ def _load_deepmimic(path: Path) -> ReferenceMotion:
     if widths and widths != {DEEPMIMIC_COLUMNS}:
         bad = next(i for i, row in enumerate(frames) if len(row) != DEEPMIMIC_COLUMNS)
         raise MotionFormatError(f"{path}: frame {bad} has {len(frames[bad])} columns, expected {DEEPMIMIC_COLUMNS}")
+    numbers = (int, float)
+    if not all(isinstance(v, numbers) and not isinstance(v, bool) for row in frames for v in row):
+        raise MotionFormatError(f"{path}: 'Frames' holds values that are not numbers")
     try:
         data = np.array(frames, dtype=np.float64).reshape(len(frames), DEEPMIMIC_COLUMNS)
-    except (TypeError, ValueError):
-        raise MotionFormatError(f"{path}: 'Frames' holds values that are not numbers") from None
+    except OverflowError:
+        raise MotionFormatError(f"{path}: 'Frames' holds a number too large for a float") from None
     _check_finite(path, "Frames", data)
     if len(data) < 2:
         raise MotionFormatError(f"{path}: a motion needs at least 2 frames, found {len(data)}")
@@ -124,6 +134,8 @@ def _load_deepmimic(path: Path) -> ReferenceMotion:
         frame = int(np.argmax(durations[:-1] <= 0))
         raise MotionFormatError(f"{path}: frame durations must be positive (frame {frame} has {durations[frame]:.6g} s)")
     frame_times = np.concatenate(([0.0], np.cumsum(durations[:-1])))
+    # A positive duration can still vanish next to a large time (1.0 + 1e-17 == 1.0).
+    _check_times(path, frame_times)
     loop = str(doc.get("Loop", "none")).lower() == "wrap"
 
     root_pos = np.stack((data[:, 1], -data[:, 3], data[:, 2]), axis=-1)
@@ -178,6 +190,19 @@ def _load_npz(path: Path) -> ReferenceMotion:
         bool(arrays.get("loop", False)),
         extras,
     )
+
+
+def _check_derived(path, motion: ReferenceMotion) -> None:
+    """Finite inputs can still give non-finite positions or velocities (1e308 apart, 1e-320 s)."""
+    derived = {
+        "frame times": motion.frame_times, "root positions": motion.root_pos,
+        "root velocities": motion._root_lin_vel, "root angular velocities": motion._root_ang_vel,
+        "joint angular velocities": motion._joint_ang_vel,
+    }
+    for what, array in derived.items():
+        if not np.isfinite(array).all():
+            frame = int(np.argwhere(~np.isfinite(array))[0][0])
+            raise MotionFormatError(f"{path}: {what} overflow at frame {frame} (values too large or frames too close in time)")
 
 
 def save_motion(motion: ReferenceMotion, path: str | os.PathLike) -> Path:

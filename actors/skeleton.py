@@ -39,26 +39,28 @@ class Link:
     shape: str
     mass: float
     geom_offset_yup: tuple
-    size: tuple  # sphere: (radius,); capsule: (radius, cylinder length); box: full extents (x, y, z) Y-up
+    # sphere: (radius,); capsule: (radius, cylinder length); box: full extents (x, y, z) Y-up.
+    # DeepMimic's Param0 of spheres and capsules is a diameter: the radii here are half of it.
+    size: tuple
     fall_contact: bool  # touching the ground with this link ends the episode
 
 
 LINKS: tuple[Link, ...] = (
-    Link("root", -1, "free", (0, 0, 0), (), 0, 0, 0, False, "sphere", 6.0, (0, 0.07, 0), (0.18,), True),
-    Link("chest", 0, "spherical", (0, 0.236151, 0), ((-1.2, 1.2),) * 3, 200, 1000, 100, False, "sphere", 14.0, (0, 0.12, 0), (0.22,), True),
-    Link("neck", 1, "spherical", (0, 0.223894, 0), ((-1, 1),) * 3, 50, 100, 10, False, "sphere", 2.0, (0, 0.175, 0), (0.205,), True),
-    Link("right_hip", 0, "spherical", (0, 0, 0.084887), ((-1.2, 1.2), (-1, 1), (-1.57, 2.57)), 200, 500, 50, False, "capsule", 4.5, (0, -0.21, 0), (0.11, 0.3), False),
-    Link("right_knee", 3, "revolute", (0, -0.421546, 0), ((-3.14, 0),), 150, 500, 50, False, "capsule", 3.0, (0, -0.2, 0), (0.1, 0.31), False),
+    Link("root", -1, "free", (0, 0, 0), (), 0, 0, 0, False, "sphere", 6.0, (0, 0.07, 0), (0.09,), True),
+    Link("chest", 0, "spherical", (0, 0.236151, 0), ((-1.2, 1.2),) * 3, 200, 1000, 100, False, "sphere", 14.0, (0, 0.12, 0), (0.11,), True),
+    Link("neck", 1, "spherical", (0, 0.223894, 0), ((-1, 1),) * 3, 50, 100, 10, False, "sphere", 2.0, (0, 0.175, 0), (0.1025,), True),
+    Link("right_hip", 0, "spherical", (0, 0, 0.084887), ((-1.2, 1.2), (-1, 1), (-1.57, 2.57)), 200, 500, 50, False, "capsule", 4.5, (0, -0.21, 0), (0.055, 0.3), False),
+    Link("right_knee", 3, "revolute", (0, -0.421546, 0), ((-3.14, 0),), 150, 500, 50, False, "capsule", 3.0, (0, -0.2, 0), (0.05, 0.31), False),
     Link("right_ankle", 4, "spherical", (0, -0.40987, 0), ((-1, 1), (-1, 1), (-1.57, 1.57)), 90, 400, 40, True, "box", 1.0, (0.045, -0.0225, 0), (0.177, 0.055, 0.09), False),
-    Link("right_shoulder", 1, "spherical", (-0.02405, 0.2435, 0.18311), ((-3.14, 0.5), (-1.5, 1.5), (-0.7, 3.14)), 100, 400, 40, False, "capsule", 1.5, (0, -0.14, 0), (0.09, 0.18), False),
-    Link("right_elbow", 6, "revolute", (0, -0.274788, 0), ((0, 3.14),), 60, 300, 30, False, "capsule", 1.0, (0, -0.12, 0), (0.08, 0.135), False),
-    Link("right_wrist", 7, "fixed", (0, -0.258947, 0), (), 0, 0, 0, True, "sphere", 0.5, (0, 0, 0), (0.08,), False),
-    Link("left_hip", 0, "spherical", (0, 0, -0.084887), ((-1.2, 1.2), (-1, 1), (-1.57, 2.57)), 200, 500, 50, False, "capsule", 4.5, (0, -0.21, 0), (0.11, 0.3), False),
-    Link("left_knee", 9, "revolute", (0, -0.421546, 0), ((-3.14, 0),), 150, 500, 50, False, "capsule", 3.0, (0, -0.2, 0), (0.1, 0.31), False),
+    Link("right_shoulder", 1, "spherical", (-0.02405, 0.2435, 0.18311), ((-3.14, 0.5), (-1.5, 1.5), (-0.7, 3.14)), 100, 400, 40, False, "capsule", 1.5, (0, -0.14, 0), (0.045, 0.18), False),
+    Link("right_elbow", 6, "revolute", (0, -0.274788, 0), ((0, 3.14),), 60, 300, 30, False, "capsule", 1.0, (0, -0.12, 0), (0.04, 0.135), False),
+    Link("right_wrist", 7, "fixed", (0, -0.258947, 0), (), 0, 0, 0, True, "sphere", 0.5, (0, 0, 0), (0.04,), False),
+    Link("left_hip", 0, "spherical", (0, 0, -0.084887), ((-1.2, 1.2), (-1, 1), (-1.57, 2.57)), 200, 500, 50, False, "capsule", 4.5, (0, -0.21, 0), (0.055, 0.3), False),
+    Link("left_knee", 9, "revolute", (0, -0.421546, 0), ((-3.14, 0),), 150, 500, 50, False, "capsule", 3.0, (0, -0.2, 0), (0.05, 0.31), False),
     Link("left_ankle", 10, "spherical", (0, -0.40987, 0), ((-1, 1), (-1, 1), (-1.57, 1.57)), 90, 400, 40, True, "box", 1.0, (0.045, -0.0225, 0), (0.177, 0.055, 0.09), False),
-    Link("left_shoulder", 1, "spherical", (-0.02405, 0.2435, -0.18311), ((-0.5, 3.14), (-1.5, 1.5), (-0.7, 3.14)), 100, 400, 40, False, "capsule", 1.5, (0, -0.14, 0), (0.09, 0.18), False),
-    Link("left_elbow", 12, "revolute", (0, -0.274788, 0), ((0, 3.14),), 60, 300, 30, False, "capsule", 1.0, (0, -0.12, 0), (0.08, 0.135), False),
-    Link("left_wrist", 13, "fixed", (0, -0.258947, 0), (), 0, 0, 0, True, "sphere", 0.5, (0, 0, 0), (0.08,), False),
+    Link("left_shoulder", 1, "spherical", (-0.02405, 0.2435, -0.18311), ((-0.5, 3.14), (-1.5, 1.5), (-0.7, 3.14)), 100, 400, 40, False, "capsule", 1.5, (0, -0.14, 0), (0.045, 0.18), False),
+    Link("left_elbow", 12, "revolute", (0, -0.274788, 0), ((0, 3.14),), 60, 300, 30, False, "capsule", 1.0, (0, -0.12, 0), (0.04, 0.135), False),
+    Link("left_wrist", 13, "fixed", (0, -0.258947, 0), (), 0, 0, 0, True, "sphere", 0.5, (0, 0, 0), (0.04,), False),
 )
 
 LINK_NAMES: tuple[str, ...] = tuple(link.name for link in LINKS)
@@ -97,3 +99,8 @@ def joint_limits_zup(link: Link) -> np.ndarray:
         return np.array(link.limits, dtype=np.float64)  # same angle about HINGE_AXIS
     (xl, xh), (yl, yh), (zl, zh) = link.limits
     return np.array([(xl, xh), (-zh, -zl), (yl, yh)], dtype=np.float64)
+
+
+def revolute_angle(quat: np.ndarray) -> np.ndarray:
+    """Signed angle about HINGE_AXIS of a quaternion that is (close to) such a rotation."""
+    return 2.0 * np.arctan2(quat[..., 1:] @ HINGE_AXIS, quat[..., 0])

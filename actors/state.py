@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from actors.humanoid import Humanoid
-from actors.kinematics import revolute_angle
+from actors.skeleton import revolute_angle
 from actors.motion import MotionPose
 from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, NUM_JOINTS
 

@@ -4,8 +4,7 @@ from __future__ import annotations
 import json
 import logging
 
-from services.run_dir import CONFIG_FILE
-from services.train_config import INIT_MODES, TrainConfig
+INIT_MODES = ("asi", "rsi", "fsi")  # services.train_config.INIT_MODES, repeated to keep `sfv` start-up light
 
 
 def register(sub) -> None:
@@ -34,11 +33,13 @@ def register(sub) -> None:
     p.set_defaults(handler=run)
 
 
-def build_config(args) -> TrainConfig:
+def build_config(args):
     import dataclasses
     from pathlib import Path
 
     from actors.humanoid import PhysicsConfig
+    from services.run_dir import CONFIG_FILE
+    from services.train_config import TrainConfig
 
     saved = Path(args.out) / CONFIG_FILE
     if args.resume and saved.exists():
