@@ -68,6 +68,11 @@ class ImitationEnv(gym.Env):
         self._features = RewardFeatures.zeros(self.model.nv)
         self._fall_mask = np.zeros(self.model.ngeom, dtype=bool)
         self._fall_mask[self.humanoid.fall_geom_ids] = True
+        # MuJoCo resets MjData by itself when the simulation blows up (bad qpos / qvel / qacc)
+        # and only counts a warning: a view of those three counters (mj_resetData clears them).
+        first_bad = int(mujoco.mjtWarning.mjWARN_BADQPOS)
+        assert (int(mujoco.mjtWarning.mjWARN_BADQVEL), int(mujoco.mjtWarning.mjWARN_BADQACC)) == (first_bad + 1, first_bad + 2)
+        self._divergence_warnings = self.data.warning.number[first_bad : first_bad + 3]
         self.reward_terms = np.zeros(4)
         self._start = 0
         self._step = 0
@@ -112,8 +117,9 @@ class ImitationEnv(gym.Env):
         reward = self._reward()
         terminated = self.config.early_termination and self._fallen()
         truncated = (not terminated) and self._step >= self._max_steps
-        if not np.isfinite(self.data.qpos).all():
-            # The simulation diverged: end the episode as a fall rather than pass NaN on.
+        if self._divergence_warnings.any() or not np.isfinite(self.data.qpos).all():
+            # The simulation diverged (and MuJoCo put the character back at its default pose):
+            # end the episode as a fall rather than carry on from a teleported state.
             terminated, truncated, reward = True, False, 0.0
         return self._observation(), reward, terminated, truncated, {}
 

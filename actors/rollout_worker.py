@@ -6,20 +6,31 @@ envs `steps` times with one batched policy forward per step, and returns time-ma
 arrays. Initial states come from the ASI server (ASI, and the server's RSI/FSI) or, without
 a server, from the reference itself. Finished ASI episodes are reported back to the server
 at the end of the call (one batched RPC).
+
+ASI outages: the client retries each call with backoff for a few seconds; a report that
+still fails is dropped and counted. Drawing starts cannot be skipped, so `_ServerStarts`
+keeps retrying for up to `WorkerSpec.asi_outage_s` (a server restart takes seconds) before
+the SfvError reaches the driver, which then stops training with that message.
 """
 from __future__ import annotations
 
+import logging
+import os
+import random
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
+from actors.errors import SfvError
 from actors.features import OBS_DIM
 from actors.imitation_env import EnvConfig
 from actors.initial_states import BufferedStarts, InitialStates, ReferenceStarts
 from actors.motion import ReferenceMotion
 from actors.policy import NumpyPolicy
 from actors.vector_env import VectorImitationEnv
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -36,16 +47,34 @@ class WorkerSpec:
     asi_job: str | None = None
     asi_token: str | None = None
     start_batch: int = 64
+    asi_tls_ca: str | None = None  # PEM root certificate of a TLS ASI server (a path readable on every node)
+    asi_outage_s: float = 30.0  # how long drawing starts keeps retrying an unreachable ASI server
 
 
 class _ServerStarts:
-    """Starts drawn from the ASI server (any mode)."""
+    """Starts drawn from the ASI server (any mode), waiting out an outage of up to `outage_s`."""
 
-    def __init__(self, client, mode: str):
+    def __init__(self, client, mode: str, outage_s: float = 30.0, max_backoff_s: float = 4.0):
         self.client, self.mode = client, mode
+        self.outage_s, self.max_backoff_s = outage_s, max_backoff_s
 
     def __call__(self, count: int) -> InitialStates:
-        reply = self.client.sample(self.mode, count)
+        deadline = time.monotonic() + self.outage_s
+        delay = 0.25
+        while True:
+            retries_before = self.client.retries
+            try:
+                reply = self.client.sample(self.mode, count)
+                break
+            except SfvError:
+                # Only transient failures (UNAVAILABLE, DEADLINE_EXCEEDED) make the client
+                # retry; a refused request (wrong token, unknown job) fails at once, no wait.
+                transient = self.client.retries > retries_before
+                if not transient or time.monotonic() + delay > deadline:
+                    raise
+                log.warning("asi server %s unreachable; retrying sample in %.1f s", self.client.address, delay)
+                time.sleep(delay * random.uniform(0.75, 1.25))
+                delay = min(self.max_backoff_s, 2 * delay)
         return InitialStates(reply.phases, np.asarray(reply.components, np.int64), reply.states.astype(np.float64))
 
 
@@ -64,8 +93,8 @@ class RolloutWorker:
         if spec.asi_address:
             from actors.asi_client import ASIClient  # gRPC only where a server is used
 
-            self.client = ASIClient(spec.asi_address, spec.asi_job, token=spec.asi_token)
-            source = _ServerStarts(self.client, spec.init)
+            self.client = ASIClient(spec.asi_address, spec.asi_job, token=spec.asi_token, tls_root_cert=spec.asi_tls_ca)
+            source = _ServerStarts(self.client, spec.init, spec.asi_outage_s)
         else:
             if spec.init == "asi":
                 raise ValueError("init 'asi' needs an ASI server address")
@@ -81,6 +110,10 @@ class RolloutWorker:
 
     def ping(self) -> int:
         return self.worker_index
+
+    def pid(self) -> int:
+        """This worker's process id (a restarted Ray actor gets a new one)."""
+        return os.getpid()
 
     def sample(self, weights: dict, policy_version: int, steps: int) -> dict[str, np.ndarray]:
         """Roll all envs forward `steps` control steps with the given policy weights."""
@@ -116,6 +149,7 @@ class RolloutWorker:
         batch.update({f"episode_{k}": v for k, v in episodes.items() if k != "initial_states"})
         batch["policy_version"] = np.array(policy_version)
         batch["worker_index"] = np.array(self.worker_index)
+        batch["worker_pid"] = np.array(os.getpid())
         batch["asi_version"] = np.array(self.asi_version)
         batch["asi_dropped_reports"] = np.array(self.client.dropped_reports if self.client else 0)
         batch["sample_seconds"] = np.array(time.perf_counter() - t0)
