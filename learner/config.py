@@ -1,0 +1,114 @@
+"""PPO hyper-parameters (SFV paper, Supplementary A, with the deviations documented below).
+
+Deviations from the paper, all chosen to learn faster per sample; every one is a field,
+so the paper's setting is one flag away:
+
+* ``optimizer="adam"`` instead of SGD+momentum (policy 2.5e-6, value 0.01).  Adam's
+  per-parameter step size makes the update insensitive to the scale of the rewards and of
+  the 1024-unit layers' gradients, so one learning rate works from the first batch; with
+  the paper's SGD steps the policy barely moves per batch (approx KL ~1e-6 per update in
+  our probe below) and needs ~150 M samples.  The policy step stays small because the
+  action std is fixed and small: shifting the mean by d in one dimension costs
+  d**2 / (2 * std**2) nats of KL.  Probe (synthetic 197-D obs / 36-D actions, batch 4096,
+  4 epochs, 1024-512 nets): Adam 2e-5 gives approx_kl ~0.012 and clipfrac ~0.2 per update;
+  5e-5 gives ~0.04 and ~0.43 (most of the step clipped away); 1e-5 gives ~0.007 and ~0.1.
+  ``target_kl`` only guards against runaway updates.  Not yet tuned on the real env.
+* ``update_epochs=4`` instead of DeepMimic's single pass over the batch: re-using
+  each 4096-sample batch several times is cheap next to simulating it, and the clip
+  plus ``target_kl`` keep the extra passes on-policy enough.
+* ``action_std=0.1``: 5 % of the env's normalised [-1, 1] action range (DeepMimic's
+  humanoid uses a fixed exploration noise of 0.05 in its own normalised action units).
+
+Advantages are normalised over the whole batch (4096 samples give a steadier mean/std
+than a 256-sample minibatch) and then clipped to ``±adv_clip``, as DeepMimic does.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+from learner.errors import ConfigError
+
+
+@dataclass
+class PPOConfig:
+    batch_size: int = field(default=4096, metadata={"help": "samples collected per PPO iteration (paper: 4096)"})
+    minibatch_size: int = field(default=256, metadata={"help": "samples per gradient step (paper: 256)"})
+    update_epochs: int = field(
+        default=4,
+        metadata={"help": "passes over each batch (DeepMimic: 1); more re-use per simulated sample, bounded by target_kl"},
+    )
+    gamma: float = field(default=0.95, metadata={"help": "discount factor (paper: 0.95)"})
+    gae_lambda: float = field(default=0.95, metadata={"help": "GAE(lambda) for policy advantages (paper: 0.95)"})
+    td_lambda: float = field(default=0.95, metadata={"help": "TD(lambda) for value targets (paper: 0.95)"})
+    clip_coef: float = field(default=0.2, metadata={"help": "PPO ratio clipping threshold epsilon (paper: 0.2)"})
+    target_kl: float | None = field(
+        default=0.05,
+        metadata={"help": "stop the update's remaining minibatches once approx KL exceeds this; None disables"},
+    )
+    norm_adv: bool = field(default=True, metadata={"help": "normalise advantages to zero mean, unit std over the whole batch"})
+    adv_clip: float = field(default=4.0, metadata={"help": "clip normalised advantages to +-adv_clip (DeepMimic: 4)"})
+    policy_hidden: tuple[int, ...] = field(
+        default=(1024, 512), metadata={"help": "policy MLP hidden layer sizes, ReLU activations (paper: 1024, 512)"}
+    )
+    value_hidden: tuple[int, ...] = field(
+        default=(1024, 512), metadata={"help": "value MLP hidden layer sizes, ReLU activations (paper: 1024, 512)"}
+    )
+    action_std: float = field(
+        default=0.1,
+        metadata={"help": "fixed std of the diagonal Gaussian policy, in the env's normalised [-1, 1] action units"},
+    )
+    action_bound: float = field(
+        default=1.0, metadata={"help": "the env clips actions to +-action_bound; the policy mean is penalised beyond it"}
+    )
+    action_bound_coef: float = field(
+        default=10.0,
+        metadata={"help": "weight of the squared penalty on policy means outside +-action_bound (0 disables)"},
+    )
+    optimizer: str = field(default="adam", metadata={"help": "'adam' (default, faster) or 'sgd' (paper: SGD, momentum 0.9)"})
+    policy_lr: float = field(default=2e-5, metadata={"help": "policy learning rate (paper SGD: 2.5e-6)"})
+    value_lr: float = field(default=1e-3, metadata={"help": "value learning rate (paper SGD: 0.01)"})
+    sgd_momentum: float = field(default=0.9, metadata={"help": "momentum when optimizer='sgd' (paper: 0.9)"})
+    max_grad_norm: float | None = field(
+        default=1.0, metadata={"help": "clip each network's gradient to this global L2 norm; None disables"}
+    )
+    obs_clip: float = field(default=10.0, metadata={"help": "clip normalised observations to +-obs_clip"})
+    normalizer_max_samples: int = field(
+        default=1_000_000,
+        metadata={"help": "stop updating the observation normaliser after this many samples (DeepMimic: 1e6)"},
+    )
+    seed: int = field(default=0, metadata={"help": "seed of the learner's network init and minibatch shuffling"})
+
+    def __post_init__(self) -> None:
+        self.policy_hidden = tuple(int(h) for h in self.policy_hidden)
+        self.value_hidden = tuple(int(h) for h in self.value_hidden)
+        problems = []
+        if self.optimizer not in ("adam", "sgd"):
+            problems.append(f"optimizer must be 'adam' or 'sgd', got {self.optimizer!r}")
+        for name in ("batch_size", "minibatch_size", "update_epochs"):
+            if getattr(self, name) < 1:
+                problems.append(f"{name} must be >= 1")
+        for name in ("gamma", "gae_lambda", "td_lambda"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                problems.append(f"{name} must be in [0, 1]")
+        for name in ("clip_coef", "action_std", "obs_clip", "policy_lr", "value_lr", "adv_clip", "action_bound"):
+            if not getattr(self, name) > 0.0:
+                problems.append(f"{name} must be > 0")
+        if any(h < 1 for h in self.policy_hidden + self.value_hidden):
+            problems.append("hidden layer sizes must be >= 1")
+        if problems:
+            raise ConfigError("PPOConfig: " + "; ".join(problems))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain python types only, so it fits a weights_only checkpoint and a JSON log."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, values: dict[str, Any]) -> "PPOConfig":
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(values) - known)
+        if unknown:
+            raise ConfigError(f"PPOConfig: unknown fields {unknown}")
+        return cls(**values)
