@@ -35,29 +35,39 @@ class ActionMapper:
         self.sph_width = self.width * NUM_SPHERICAL
         self.action_dim = self.sph_width + NUM_REVOLUTE
         assert SPH_CTRL + NUM_REVOLUTE == NUM_ACTUATED_DOF
-        self._clipped = np.zeros(self.action_dim)
+        self._clipped = np.zeros((1, self.action_dim))
         self._targets = np.zeros(NUM_ACTUATED_DOF)
-        self._angle = np.zeros(NUM_SPHERICAL)
+        self._angle = np.zeros((1, NUM_SPHERICAL))
 
     def targets(self, action: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """PD targets (28,) for one action; writes into `out` (e.g. MjData.ctrl) if given."""
-        a = np.clip(action, -1.0, 1.0, out=self._clipped)
-        t = self._targets
-        sph = t[:SPH_CTRL].reshape(NUM_SPHERICAL, 3)
+        t = self.targets_batch(np.asarray(action).reshape(1, -1), self._targets.reshape(1, -1))[0]
+        if out is not None:
+            out[:] = t
+        return t
+
+    def targets_batch(self, actions: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """PD targets (B, 28) for a batch of actions (B, action_dim), into `out`."""
+        b = actions.shape[0]
+        if self._clipped.shape[0] != b:
+            self._clipped = np.zeros((b, self.action_dim))
+            self._angle = np.zeros((b, NUM_SPHERICAL))
+        a = np.clip(actions, -1.0, 1.0, out=self._clipped)
+        sph = out[:, :SPH_CTRL].reshape(b, NUM_SPHERICAL, 3)
         if self.parameterisation == "axis_angle":
-            block = a[: self.sph_width].reshape(NUM_SPHERICAL, 4)
-            axis = block[:, 1:]
+            block = a[:, : self.sph_width].reshape(b, NUM_SPHERICAL, 4)
+            axis = block[..., 1:]
             angle = self._angle
             np.sqrt(np.vecdot(axis, axis, out=angle), out=angle)
             np.maximum(angle, 1e-6, out=angle)
-            np.divide(block[:, 0], angle, out=angle)
+            np.divide(block[..., 0], angle, out=angle)
             angle *= np.pi
-            np.multiply(axis, angle[:, None], out=sph)
+            np.multiply(axis, angle[..., None], out=sph)
         else:
-            np.multiply(a[:SPH_CTRL], self.scale[:SPH_CTRL], out=t[:SPH_CTRL])
-        np.multiply(a[self.sph_width:], self.scale[SPH_CTRL:], out=t[SPH_CTRL:])
-        np.clip(t, self.lower, self.upper, out=t if out is None else out)
-        return t if out is None else out
+            np.multiply(a[:, :SPH_CTRL], self.scale[:SPH_CTRL], out=out[:, :SPH_CTRL])
+        np.multiply(a[:, self.sph_width:], self.scale[SPH_CTRL:], out=out[:, SPH_CTRL:])
+        np.clip(out, self.lower, self.upper, out=out)
+        return out
 
     def action_for_targets(self, targets: np.ndarray) -> np.ndarray:
         """An action whose targets are `targets` (inverse map, within limits); for tests and

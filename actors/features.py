@@ -1,8 +1,10 @@
-"""Kinematic features of a MuJoCo humanoid state, shared by observations and rewards.
+"""Kinematic features of humanoid states, for B envs at once: observations and reward inputs.
 
-Both the simulated character and the reference (set into a scratch MjData) go through the
-same functions, so a perfect tracking gives exactly equal features. Everything writes into
-preallocated buffers: this runs once per control step per env.
+The rollout hot path is per-env MuJoCo stepping followed by feature maths. Python-level numpy
+calls cost about a microsecond each whatever their size, so the maths runs once per control
+step over all B envs of a worker on (B, ...) arrays: each env only copies a few MjData fields
+into its row (`capture`). A single env is the case B = 1. The reference (set into a scratch
+MjData) goes through the same code, so perfect tracking gives exactly equal features.
 """
 from __future__ import annotations
 
@@ -17,6 +19,10 @@ from actors.state import StateLayout
 
 OBS_DIM = 1 + NUM_LINKS * (3 + 4 + 3 + 3) + 1  # 197: height, link pos/rot/lin vel/ang vel, phase
 NUM_REWARD_QUATS = 9  # root (world) + 8 ball joints (local); the 4 hinges compare angles
+_POS = slice(1, 1 + 3 * NUM_LINKS)
+_ROT = slice(_POS.stop, _POS.stop + 4 * NUM_LINKS)
+_LIN = slice(_ROT.stop, _ROT.stop + 3 * NUM_LINKS)
+_ANG = slice(_LIN.stop, _LIN.stop + 3 * NUM_LINKS)
 
 
 def update_kinematics(model: mujoco.MjModel, data: mujoco.MjData) -> None:
@@ -30,112 +36,158 @@ def update_kinematics(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     mujoco.mj_comVel(model, data)
 
 
-def yaw_matrix(root_xmat: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """M with v_heading = v_world @ M: the inverse of the root's yaw (Z up)."""
-    fx, fy = root_xmat[0], root_xmat[3]  # world x, y of the root's +x axis
-    norm = np.hypot(fx, fy) or 1.0
-    c, s = fx / norm, fy / norm
-    out[0, 0], out[0, 1], out[1, 0], out[1, 1] = c, -s, s, c
-    out[2, 2] = 1.0
-    return out
-
-
 @dataclass
 class RewardFeatures:
-    """What the reward compares: 9 quaternions, 4 hinge angles, the 31 angular velocity
-    coordinates of qvel (root and ball joints in local frames, hinge rates), the 4 end
-    effectors relative to the root in the heading frame, and the world centre of mass."""
+    """What the reward compares, with a leading batch (or table-row) dimension: 9
+    quaternions, 4 hinge angles, the nv-3 angular velocity coordinates of qvel (root and ball
+    joints in local frames, hinge rates), the 4 end effectors relative to the root in the
+    heading frame, and the world centre of mass."""
 
-    quats: np.ndarray  # (..., 9, 4)
-    hinges: np.ndarray  # (..., 4)
-    ang_vel: np.ndarray  # (..., nv - 3)
-    end_effectors: np.ndarray  # (..., 4, 3)
-    com: np.ndarray  # (..., 3)
+    quats: np.ndarray  # (B, 9, 4)
+    hinges: np.ndarray  # (B, 4)
+    ang_vel: np.ndarray  # (B, nv - 3)
+    end_effectors: np.ndarray  # (B, 4, 3)
+    com: np.ndarray  # (B, 3)
 
     @classmethod
-    def zeros(cls, nv: int, rows: tuple = ()) -> "RewardFeatures":
-        return cls(np.zeros(rows + (NUM_REWARD_QUATS, 4)), np.zeros(rows + (4,)), np.zeros(rows + (nv - 3,)), np.zeros(rows + (4, 3)), np.zeros(rows + (3,)))
+    def zeros(cls, nv: int, rows: int = 1) -> "RewardFeatures":
+        return cls(np.zeros((rows, NUM_REWARD_QUATS, 4)), np.zeros((rows, 4)), np.zeros((rows, nv - 3)), np.zeros((rows, 4, 3)), np.zeros((rows, 3)))
 
-    def row(self, k: int) -> "RewardFeatures":
-        return RewardFeatures(self.quats[k], self.hinges[k], self.ang_vel[k], self.end_effectors[k], self.com[k])
+    def take(self, rows: np.ndarray) -> "RewardFeatures":
+        """Rows gathered by index (copies), e.g. each env's current reference row."""
+        return RewardFeatures(self.quats[rows], self.hinges[rows], self.ang_vel[rows], self.end_effectors[rows], self.com[rows])
+
+    def slice(self, rows: slice) -> "RewardFeatures":
+        return RewardFeatures(self.quats[rows], self.hinges[rows], self.ang_vel[rows], self.end_effectors[rows], self.com[rows])
 
 
 class FeatureExtractor:
-    """Computes the 197-D observation and the reward's features into fixed buffers."""
+    """Observation (197-D) and reward features for `batch` envs, into fixed buffers."""
 
-    def __init__(self, humanoid: Humanoid):
+    def __init__(self, humanoid: Humanoid, batch: int = 1):
         self.model = humanoid.model
+        self.batch = b = batch
         self.layout = StateLayout(humanoid)
         self.root_body = int(humanoid.body_ids[0])
-        self.ee_body_ids = humanoid.body_ids[END_EFFECTOR_LINKS]
+        # MuJoCo bodies 1..15 are the links (see Humanoid); positions in that slice:
+        self._ee = humanoid.body_ids[END_EFFECTOR_LINKS] - 1
+        assert self.root_body == 1
         self.quat_qpos = np.concatenate((np.arange(3, 7)[None], self.layout.ball_qpos))  # (9, 4)
         n = NUM_LINKS
-        self._links = slice(1, 1 + n)  # bodies 1..15 (see Humanoid)
-        self._yaw = np.zeros((3, 3))
-        self._rel = np.zeros((n, 3))
-        self._lever = np.zeros((n, 3))
-        self._lin = np.zeros((n, 3))
-        self._tmp = np.zeros((n, 3))
-        self._left = np.zeros((4, 4))  # right-multiplied matrix form of q_h^-1 * q
-        self._ee = np.zeros((4, 3))
-        self._pos_slice = slice(1, 1 + 3 * n)
-        self._rot_slice = slice(1 + 3 * n, 1 + 7 * n)
-        self._lin_slice = slice(1 + 7 * n, 1 + 10 * n)
-        self._ang_slice = slice(1 + 10 * n, 1 + 13 * n)
+        nq, nv = self.model.nq, self.model.nv
+        # Captured MjData fields, one row per env.
+        self.pos = np.zeros((b, n, 3))
+        self.quat = np.zeros((b, n, 4))
+        self.cvel = np.zeros((b, n, 6))
+        self.com = np.zeros((b, 3))
+        self.forward = np.zeros((b, 2))  # world x, y of the root's +x axis
+        self.qpos = np.zeros((b, nq))
+        self.qvel = np.zeros((b, nv))
+        # Scratch.
+        self._yaw = np.zeros((b, 3, 3))
+        self._yaw[:, 2, 2] = 1.0
+        self._left = np.zeros((b, 4, 4))
+        self._rel = np.zeros((b, n, 3))
+        self._lin = np.zeros((b, n, 3))
+        self._tmp = np.zeros((b, n, 3))
+        self._c = np.zeros(b)
+        self._s = np.zeros(b)
+        self.sim = RewardFeatures.zeros(nv, b)
+
+    def capture(self, i: int, data: mujoco.MjData) -> None:
+        """Copy env i's state (after `update_kinematics`) into row i."""
+        self.pos[i] = data.xpos[1:]
+        self.quat[i] = data.xquat[1:]
+        self.cvel[i] = data.cvel[1:]
+        self.com[i] = data.subtree_com[1]
+        xmat = data.xmat[1]
+        self.forward[i, 0], self.forward[i, 1] = xmat[0], xmat[3]
+        self.qpos[i] = data.qpos
+        self.qvel[i] = data.qvel
+
+    def _heading(self, rows: slice) -> np.ndarray:
+        """(B,3,3) M with v_heading = v_world @ M (the inverse of each root's yaw)."""
+        f = self.forward[rows]
+        c, s = self._c[rows], self._s[rows]
+        np.hypot(f[:, 0], f[:, 1], out=c)
+        np.maximum(c, 1e-12, out=c)
+        np.divide(f[:, 1], c, out=s)
+        np.divide(f[:, 0], c, out=c)
+        yaw = self._yaw[rows]
+        yaw[:, 0, 0] = c
+        yaw[:, 1, 1] = c
+        yaw[:, 0, 1] = -s
+        yaw[:, 1, 0] = s
+        return yaw
 
     # ----------------------------------------------------------------- observation
-    def observation(self, data: mujoco.MjData, phase: float, out: np.ndarray) -> np.ndarray:
-        """State features of SFV §9 / DeepMimic in the heading frame, plus the phase."""
-        n = NUM_LINKS
-        pos, quat, cvel = data.xpos[self._links], data.xquat[self._links], data.cvel[self._links]
-        root = data.xpos[self.root_body]
-        yaw = yaw_matrix(data.xmat[self.root_body], self._yaw)
-        out[0] = root[2]
-        rel = np.subtract(pos, root, out=self._rel)
-        np.matmul(rel, yaw, out=out[self._pos_slice].reshape(n, 3))
-        self._heading_rotations(quat, yaw[0, 0], yaw[1, 0], out[self._rot_slice].reshape(n, 4))
+    def observations(self, phases: np.ndarray, out: np.ndarray, rows: slice = slice(None)) -> np.ndarray:
+        """State features of SFV §9 / DeepMimic in each heading frame, plus the phase."""
+        pos, quat, cvel = self.pos[rows], self.quat[rows], self.cvel[rows]
+        b, n = pos.shape[0], NUM_LINKS
+        yaw = self._heading(rows)
+        out[:, 0] = pos[:, 0, 2]
+        rel = np.subtract(pos, pos[:, :1], out=self._rel[rows])
+        np.matmul(rel, yaw, out=out[:, _POS].reshape(b, n, 3))
+        self._heading_rotations(quat, yaw, out[:, _ROT].reshape(b, n, 4), rows)
         # cvel is (angular, linear at the subtree centre of mass); move the linear part to
         # each body's origin: v = v_com + w x (p - com).
-        ang, lin_com = cvel[:, :3], cvel[:, 3:]
-        lever = np.add(rel, root - data.subtree_com[self.root_body], out=self._lever)
-        lin = self._cross(ang, lever, self._lin)
-        lin += lin_com
-        np.matmul(lin, yaw, out=out[self._lin_slice].reshape(n, 3))
-        np.matmul(ang, yaw, out=out[self._ang_slice].reshape(n, 3))
-        out[-1] = phase
+        ang = cvel[:, :, :3]
+        lever = rel
+        lever += (pos[:, 0] - self.com[rows])[:, None, :]
+        lin = self._cross(ang, lever, self._lin[rows], self._tmp[rows])
+        lin += cvel[:, :, 3:]
+        np.matmul(lin, yaw, out=out[:, _LIN].reshape(b, n, 3))
+        np.matmul(ang, yaw, out=out[:, _ANG].reshape(b, n, 3))
+        out[:, -1] = phases
         return out
 
-    def _heading_rotations(self, quat: np.ndarray, c: float, s: float, out: np.ndarray) -> None:
-        """q_h^-1 * q for the yaw q_h = (cos th/2, 0, 0, sin th/2), one sign per rotation.
+    def _heading_rotations(self, quat: np.ndarray, yaw: np.ndarray, out: np.ndarray, rows: slice) -> None:
+        """q_h^-1 * q for each yaw q_h = (cos th/2, 0, 0, sin th/2), one sign per rotation.
 
-        Left-multiplying by a fixed quaternion is linear, so it is one (15,4)@(4,4) product.
+        Left-multiplying by a fixed quaternion is linear: one (15,4)@(4,4) product per env.
         """
-        hc = np.sqrt(0.5 * (1.0 + c))
-        hs = np.copysign(np.sqrt(max(0.5 * (1.0 - c), 0.0)), s)
-        m = self._left
-        m[0, 0] = m[1, 1] = m[2, 2] = m[3, 3] = hc
-        m[3, 0], m[2, 1], m[1, 2], m[0, 3] = hs, hs, -hs, -hs
+        c, s = yaw[:, 0, 0], yaw[:, 1, 0]
+        hc = np.sqrt(np.maximum(0.5 * (1.0 + c), 0.0))
+        hs = np.copysign(np.sqrt(np.maximum(0.5 * (1.0 - c), 0.0)), s)
+        m = self._left[rows]
+        m[:, 0, 0] = m[:, 1, 1] = m[:, 2, 2] = m[:, 3, 3] = hc
+        m[:, 3, 0] = m[:, 2, 1] = hs
+        m[:, 1, 2] = m[:, 0, 3] = -hs
         np.matmul(quat, m, out=out)
-        negative = out[:, 0] < 0
+        negative = out[..., 0] < 0
         if negative.any():
             out[negative] *= -1.0  # q and -q are the same rotation
 
-    def _cross(self, a: np.ndarray, b: np.ndarray, out: np.ndarray) -> np.ndarray:
-        tmp = self._tmp
+    @staticmethod
+    def _cross(a: np.ndarray, b: np.ndarray, out: np.ndarray, tmp: np.ndarray) -> np.ndarray:
         for i, (j, k) in enumerate(((1, 2), (2, 0), (0, 1))):
-            np.multiply(a[:, j], b[:, k], out=out[:, i])
-            np.multiply(a[:, k], b[:, j], out=tmp[:, i])
+            np.multiply(a[..., j], b[..., k], out=out[..., i])
+            np.multiply(a[..., k], b[..., j], out=tmp[..., i])
         out -= tmp
         return out
 
     # ------------------------------------------------------------------- reward terms
-    def reward_features(self, data: mujoco.MjData, out: RewardFeatures) -> RewardFeatures:
-        qpos = data.qpos
-        out.quats[:] = qpos[self.quat_qpos]
-        out.hinges[:] = qpos[self.layout.hinge_qpos]
-        out.ang_vel[:] = data.qvel[3:]
-        yaw = yaw_matrix(data.xmat[self.root_body], self._yaw)
-        np.subtract(data.xpos[self.ee_body_ids], data.xpos[self.root_body], out=self._ee)
-        np.matmul(self._ee, yaw, out=out.end_effectors)
-        out.com[:] = data.subtree_com[self.root_body]
-        return out
+    def reward_features(self, rows: slice = slice(None)) -> RewardFeatures:
+        """The reward's features of the captured rows (views into `self.sim`)."""
+        sim = self.sim.slice(rows)
+        qpos = self.qpos[rows]
+        sim.quats[:] = qpos[:, self.quat_qpos]
+        sim.hinges[:] = qpos[:, self.layout.hinge_qpos]
+        sim.ang_vel[:] = self.qvel[rows, 3:]
+        pos = self.pos[rows]
+        ee = np.subtract(pos[:, self._ee], pos[:, :1], out=self._rel[rows, :4])
+        np.matmul(ee, self._heading(rows), out=sim.end_effectors)
+        sim.com[:] = self.com[rows]
+        return sim
+
+    # ------------------------------------------------------------ single-env helpers
+    def observation(self, data: mujoco.MjData, phase: float, out: np.ndarray) -> np.ndarray:
+        """Capture `data` into row 0 and return its (197,) observation in `out`."""
+        self.capture(0, data)
+        return self.observations(phase, out.reshape(1, -1), slice(0, 1))[0]
+
+    def reward_features_of(self, data: mujoco.MjData) -> RewardFeatures:
+        """Capture `data` into row 0; its reward features as a batch of one."""
+        self.capture(0, data)
+        return self.reward_features(slice(0, 1))

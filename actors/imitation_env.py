@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from actors.actions import ActionMapper
-from actors.features import OBS_DIM, FeatureExtractor, RewardFeatures, update_kinematics
+from actors.features import OBS_DIM, FeatureExtractor, update_kinematics
 from actors.humanoid import Humanoid, PhysicsConfig
 from actors.motion import ReferenceMotion
 from actors.reference_track import ReferenceTrack
@@ -24,6 +24,7 @@ from actors.reward import ImitationReward, RewardConfig
 from actors.state import StateLayout
 
 INIT_STRATEGIES = ("fsi", "rsi", "state")
+_ONE = slice(0, 1)  # the single env's row in its batch-of-one feature buffers
 
 
 @dataclass(frozen=True)
@@ -64,8 +65,7 @@ class ImitationEnv(gym.Env):
         self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
         self.state_dim = self.layout.state_dim
         # Per-step buffers: the hot path writes into these instead of allocating.
-        self._obs = np.zeros(OBS_DIM, dtype=np.float64)
-        self._features = RewardFeatures.zeros(self.model.nv)
+        self._obs = np.zeros((1, OBS_DIM), dtype=np.float64)
         self._fall_mask = np.zeros(self.model.ngeom, dtype=bool)
         self._fall_mask[self.humanoid.fall_geom_ids] = True
         # MuJoCo resets MjData by itself when the simulation blows up (bad qpos / qvel / qacc)
@@ -110,18 +110,34 @@ class ImitationEnv(gym.Env):
 
     # ------------------------------------------------------------------------- step
     def step(self, action):
-        self.actions.targets(np.asarray(action, dtype=np.float64), out=self.data.ctrl)
+        self.actions.targets(action, out=self.data.ctrl)
+        fell, diverged = self.simulate()
+        self.features.capture(0, self.data)
+        row = self.track.reward_features(self.row)
+        reward = 0.0 if diverged else self.reward_fn(self.features.reward_features(_ONE), row, self.reward_terms)
+        terminated, truncated = self.ending(fell, diverged)
+        obs = self.features.observations(self.track.phase[self.row], self._obs, _ONE)[0]
+        return obs.astype(np.float32), reward, terminated, truncated, {}
+
+    def simulate(self) -> tuple[bool, bool]:
+        """Advance one control step with `data.ctrl` already set: (fell, diverged).
+
+        Shared by `step` and the vector env's batched step, so both end episodes alike.
+        """
         mujoco.mj_step(self.model, self.data, nstep=self.substeps)
         update_kinematics(self.model, self.data)
         self._step += 1
-        reward = self._reward()
-        terminated = self.config.early_termination and self._fallen()
-        truncated = (not terminated) and self._step >= self._max_steps
-        if self._divergence_warnings.any() or not np.isfinite(self.data.qpos).all():
-            # The simulation diverged (and MuJoCo put the character back at its default pose):
-            # end the episode as a fall rather than carry on from a teleported state.
-            terminated, truncated, reward = True, False, 0.0
-        return self._observation(), reward, terminated, truncated, {}
+        # MuJoCo resets the data and counts a warning when the simulation blows up: end the
+        # episode as a fall rather than carry on from a teleported state.
+        diverged = bool(self._divergence_warnings.any())
+        fell = self.config.early_termination and self._fallen()
+        return fell, diverged
+
+    def ending(self, fell: bool, diverged: bool) -> tuple[bool, bool]:
+        """(terminated, truncated) after a step: a fall or divergence ends the episode, the
+        horizon (or the clip's end) truncates it."""
+        terminated = fell or diverged
+        return terminated, (not terminated) and self._step >= self._max_steps
 
     # ---------------------------------------------------------------------- queries
     @property
@@ -150,7 +166,7 @@ class ImitationEnv(gym.Env):
 
     def reward_at(self, row: int) -> float:
         """Reward of the current simulated state against the reference at `row`."""
-        sim = self.features.reward_features(self.data, self._features)
+        sim = self.features.reward_features_of(self.data)
         return self.reward_fn(sim, self.track.reward_features(row), self.reward_terms)
 
     # --------------------------------------------------------------------- internals
@@ -158,12 +174,9 @@ class ImitationEnv(gym.Env):
         return self.features.observation(self.data, self.track.phase[self.row], self._obs).astype(np.float32)
 
     def observation_into(self, out: np.ndarray) -> np.ndarray:
-        """Write the observation into a caller's (float32) row without an extra copy."""
+        """Write the observation into a caller's (float32) row."""
         out[:] = self.features.observation(self.data, self.track.phase[self.row], self._obs)
         return out
-
-    def _reward(self) -> float:
-        return self.reward_at(self.row)
 
     def _fallen(self) -> bool:
         ncon = self.data.ncon

@@ -31,6 +31,7 @@ from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, JOINT_NAMES, NUM_JOI
 
 DEEPMIMIC_COLUMNS = 1 + 3 + 4 + int(4 * JOINT_IS_SPHERICAL.sum() + (~JOINT_IS_SPHERICAL).sum())  # 44
 NPZ_FORMAT = "sfv-motion-1"
+MAX_DURATION_S = 1e5  # a day; longer "clips" are corrupt timing (and overflow when sampled)
 DEEPMIMIC_CLIPS = (
     "backflip", "cartwheel", "crawl", "dance_a", "dance_b", "getup_facedown", "getup_faceup",
     "jump", "kick", "punch", "roll", "run", "spin", "spinkick", "walk",
@@ -199,6 +200,8 @@ def _check_derived(path, motion: ReferenceMotion) -> None:
         "root velocities": motion._root_lin_vel, "root angular velocities": motion._root_ang_vel,
         "joint angular velocities": motion._joint_ang_vel,
     }
+    if motion.duration > MAX_DURATION_S:
+        raise MotionFormatError(f"{path}: clip lasts {motion.duration:.3g} s; more than {MAX_DURATION_S:.0f} s is not a motion clip")
     for what, array in derived.items():
         if not np.isfinite(array).all():
             frame = int(np.argwhere(~np.isfinite(array))[0][0])

@@ -39,7 +39,7 @@ class ReferenceTrack:
         model = humanoid.model
         self.qpos = np.zeros((rows, model.nq))
         self.qvel = np.zeros((rows, model.nv))
-        self.features = RewardFeatures.zeros(model.nv, (rows,))
+        self.features = RewardFeatures.zeros(model.nv, rows)
         scratch = mujoco.MjData(model)
         features = FeatureExtractor(humanoid)
         poses = motion.sample(times)
@@ -49,10 +49,13 @@ class ReferenceTrack:
             scratch.qpos[:] = self.qpos[k]
             scratch.qvel[:] = self.qvel[k]
             update_kinematics(model, scratch)
-            features.reward_features(scratch, self.features.row(k))
-        self._rows = [self.features.row(k) for k in range(rows)]  # views, built once
+            row = features.reward_features_of(scratch)
+            for name in ("quats", "hinges", "ang_vel", "end_effectors", "com"):
+                getattr(self.features, name)[k] = getattr(row, name)[0]
+        self._rows = [self.features.slice(slice(k, k + 1)) for k in range(rows)]  # views, built once
 
     def reward_features(self, row: int) -> RewardFeatures:
+        """Row `row` as a batch of one (a view)."""
         return self._rows[row]
 
     @property

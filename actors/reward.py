@@ -9,7 +9,8 @@ with the paper's weights (.65, .1, .15, .1) and scales (2, 0.1, 40, 10).
   joint's local angular velocity and each hinge's rate (a hinge's |w* - w| is its rate gap).
 - End effectors (ankles, wrists) are relative to the root in the heading frame; the centre
   of mass is in the world frame.
-Weights and scales are config, so the other papers' variants plug in.
+Weights and scales are config, so the other papers' variants plug in. Everything is
+computed for a batch of envs at once (a single env is a batch of one).
 """
 from __future__ import annotations
 
@@ -36,12 +37,17 @@ class RewardConfig:
         return self.pose_weight + self.velocity_weight + self.end_effector_weight + self.com_weight
 
 
-def pose_error_sq(sim: RewardFeatures, ref: RewardFeatures) -> float:
-    """Sum over the 13 rotations of the squared angle of the difference rotation."""
+def pose_error_sq(sim: RewardFeatures, ref: RewardFeatures) -> np.ndarray:
+    """(B,) sum over the 13 rotations of the squared angle of the difference rotation."""
     dot = np.abs(np.vecdot(sim.quats, ref.quats))
     angle = 2.0 * np.arccos(np.minimum(dot, 1.0))
     dh = sim.hinges - ref.hinges
-    return float(angle @ angle + dh @ dh)
+    return np.vecdot(angle, angle) + np.vecdot(dh, dh)
+
+
+def _squared_norm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    d = (a - b).reshape(a.shape[0], -1)
+    return np.vecdot(d, d)
 
 
 class ImitationReward:
@@ -50,18 +56,18 @@ class ImitationReward:
         c = config
         self._weights = np.array([c.pose_weight, c.velocity_weight, c.end_effector_weight, c.com_weight])
         self._scales = -np.array([c.pose_scale, c.velocity_scale, c.end_effector_scale, c.com_scale])
-        self._errors = np.zeros(4)
-        self._terms = np.zeros(4)
+
+    def batch(self, sim: RewardFeatures, ref: RewardFeatures, terms: np.ndarray) -> np.ndarray:
+        """Rewards (B,) and their four terms in `terms` (B, 4)."""
+        terms[:, 0] = pose_error_sq(sim, ref)
+        terms[:, 1] = _squared_norm(sim.ang_vel, ref.ang_vel)
+        terms[:, 2] = _squared_norm(sim.end_effectors, ref.end_effectors)
+        terms[:, 3] = _squared_norm(sim.com, ref.com)
+        np.multiply(terms, self._scales, out=terms)
+        np.exp(terms, out=terms)
+        return terms @ self._weights
 
     def __call__(self, sim: RewardFeatures, ref: RewardFeatures, terms: np.ndarray | None = None) -> float:
-        e = self._errors
-        e[0] = pose_error_sq(sim, ref)
-        dv = sim.ang_vel - ref.ang_vel
-        e[1] = dv @ dv
-        de = (sim.end_effectors - ref.end_effectors).ravel()
-        e[2] = de @ de
-        dc = sim.com - ref.com
-        e[3] = dc @ dc
-        t = self._terms if terms is None else terms
-        np.exp(np.multiply(self._scales, e, out=t), out=t)
-        return float(self._weights @ t)
+        """Reward of a batch of one; `terms` (4,) receives the four terms if given."""
+        t = np.zeros((1, 4)) if terms is None else terms.reshape(1, 4)
+        return float(self.batch(sim, ref, t)[0])

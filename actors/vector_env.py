@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from actors.features import OBS_DIM
+from actors.features import OBS_DIM, FeatureExtractor
 from actors.humanoid import Humanoid
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.initial_states import BufferedStarts
@@ -66,6 +66,19 @@ class VectorImitationEnv:
         self.episodes = EpisodeLog(state_dim=self.state_dim)
         self._seed = seed
         self._seeded = False
+        # Batched step: per-env MuJoCo, then one pass of feature maths over all envs.
+        first = self.envs[0]
+        self.track = track
+        self.features = FeatureExtractor(humanoid, num_envs)
+        self.actions = first.actions
+        self.reward_fn = first.reward_fn
+        self.early_termination = config.early_termination
+        self._targets = np.zeros((num_envs, first.model.nu))
+        self._rows = np.zeros(num_envs, dtype=np.int64)
+        self._fell = np.zeros(num_envs, dtype=bool)
+        self._diverged = np.zeros(num_envs, dtype=bool)
+        self._terms = np.zeros((num_envs, 4))
+        self._obs64 = np.zeros((num_envs, OBS_DIM))
 
     def reset(self) -> np.ndarray:
         for i in range(self.num_envs):
@@ -96,19 +109,29 @@ class VectorImitationEnv:
         (the true successor, for bootstrapping a truncated episode); `obs[i]` is the new
         episode's first observation then.
         """
+        targets = self.actions.targets_batch(actions, self._targets)
+        features = self.features
         for i, env in enumerate(self.envs):
-            _, reward, term, trunc, _ = env.step(actions[i])
-            env.observation_into(self.final_obs[i])
-            self.rewards[i], self.terminated[i], self.truncated[i] = reward, term, trunc
-            self._ret[i] += reward
-            self._disc[i] += self._discount[i] * reward
-            self._discount[i] *= self.gamma
-            self._len[i] += 1
-            if term or trunc:
-                self._record(i, term)
+            env.data.ctrl[:] = targets[i]
+            self._fell[i], self._diverged[i] = env.simulate()
+            features.capture(i, env.data)
+            self._rows[i] = env.row
+        track = self.track
+        rewards = self.reward_fn.batch(features.reward_features(), track.features.take(self._rows), self._terms)
+        rewards[self._diverged] = 0.0
+        self.rewards[:] = rewards
+        features.observations(track.phase[self._rows], self._obs64)
+        self.final_obs[:] = self._obs64
+        self._ret += rewards
+        self._disc += self._discount * rewards
+        self._discount *= self.gamma
+        self._len += 1
+        self.obs[:] = self.final_obs
+        for i, env in enumerate(self.envs):
+            self.terminated[i], self.truncated[i] = env.ending(self._fell[i], self._diverged[i])
+            if self.terminated[i] or self.truncated[i]:
+                self._record(i, bool(self.terminated[i]))
                 self._reset_env(i)
-            else:
-                self.obs[i] = self.final_obs[i]
         return self.obs, self.rewards, self.terminated, self.truncated, self.final_obs
 
     def _record(self, i: int, fell: bool) -> None:
