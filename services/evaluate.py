@@ -21,17 +21,21 @@ from services.train_config import TrainConfig
 
 def load_run(run_dir: str | Path) -> tuple[TrainConfig, dict]:
     """The run's config and the newest checkpoint's policy weights (numpy)."""
-    from learner.checkpoint import latest_checkpoint, load_checkpoint
+    from learner.checkpoint import load_checkpoint
+    from services.run_dir import checkpoint_files
 
     run_dir = Path(run_dir)
     config_path = run_dir / CONFIG_FILE
     if not config_path.is_file():
         raise SfvError(f"{run_dir}: not a run directory (no {CONFIG_FILE})")
     config = TrainConfig.from_dict(json.loads(config_path.read_text()))
-    latest = latest_checkpoint(run_dir)
-    if latest is None:
+    checkpoints = checkpoint_files(run_dir)
+    if not checkpoints:
         raise SfvError(f"{run_dir}: no checkpoint yet")
-    payload = load_checkpoint(latest)
+    # The newest, verified: a corrupt or tampered one is an error, never silently an older policy.
+    payload = load_checkpoint(checkpoints[-1])
+    if not isinstance(payload.get("policy_weights"), dict):
+        raise SfvError(f"{checkpoints[-1]}: checkpoint holds no policy weights")
     weights = {k: v.numpy() if hasattr(v, "numpy") else np.asarray(v) for k, v in payload["policy_weights"].items()}
     return config, weights
 
@@ -83,8 +87,16 @@ def evaluate_run(run_dir: str | Path, episodes: int = 10, seed: int = 0, init: s
         from services.train_config import TrainConfig
 
         config, weights = TrainConfig(motion=motion), None
+    elif onnx is not None:
+        # The run only supplies the env settings: read config.json, not the (torch) checkpoint.
+        from services.export.policy_source import read_run_config
+
+        config, weights = read_run_config(run_dir), None
     else:
         config, weights = load_run(run_dir)
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1, user_api="blas")  # batch-1 inference: BLAS threads only spin
     env = ImitationEnv(load_motion(motion or config.motion), config.env)
     policy = make_policy(run_dir, onnx, weights)
     result = evaluate_policy(policy, env, episodes, seed, init)

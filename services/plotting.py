@@ -1,45 +1,98 @@
-"""Learning curves: samples vs normalised return, one line per run (e.g. ASI vs RSI)."""
+"""Learning curves: samples vs normalised return, one line per run, coloured by init strategy.
+
+The trainer redraws `learning_curve.png` in its run directory while it trains; `sfv plot`
+draws several runs together (the paper's ASI vs RSI comparison). Each iteration's return is
+a noisy mean over the episodes that ended in it, so the raw curve is drawn faint and an
+exponential moving average over it bold.
+"""
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from pathlib import Path
 
+import numpy as np
+
 from services.run_dir import CONFIG_FILE, read_metrics
 
+INIT_COLOURS = {"asi": "tab:blue", "rsi": "tab:orange", "fsi": "tab:green"}
+LINE_STYLES = ("-", "--", ":", "-.")
 
-def _label(run_dir: Path) -> str:
-    import json
 
+def run_info(run_dir: Path) -> dict:
+    """Init strategy and motion from the run's config.json ('?' when unreadable)."""
     try:
-        config = json.loads((run_dir / CONFIG_FILE).read_text())
-        return f"{run_dir.name} ({config.get('init', '?')}, {config.get('motion', '?')})"
-    except (OSError, ValueError):
-        return run_dir.name
+        config = json.loads((Path(run_dir) / CONFIG_FILE).read_text())
+        return {"init": str(config.get("init", "?")), "motion": str(config.get("motion", "?"))}
+    except (OSError, ValueError, AttributeError):
+        return {"init": "?", "motion": "?"}
 
 
-def plot_learning_curves(run_dirs: list[Path], out: Path) -> Path:
+def learning_curve(run_dir: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(samples, normalised return) of the iterations that finished at least one episode."""
+    rows = [r for r in read_metrics(Path(run_dir)) if r.get("normalized_return") is not None and "samples" in r]
+    return (np.array([r["samples"] for r in rows], dtype=np.float64),
+            np.array([r["normalized_return"] for r in rows], dtype=np.float64))
+
+
+def smooth(values: np.ndarray, weight: float) -> np.ndarray:
+    """Bias-corrected exponential moving average (TensorBoard's smoothing)."""
+    out = np.empty_like(values)
+    average, norm = 0.0, 0.0
+    for index, value in enumerate(values):
+        average = weight * average + (1.0 - weight) * value
+        norm = weight * norm + (1.0 - weight)
+        out[index] = average / norm
+    return out
+
+
+def plot_learning_curves(run_dirs: list[Path], out: Path, smoothing: float = 0.8) -> Path:
+    """Draw the runs' curves into `out` (PNG, written atomically); returns `out`."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import EngFormatter
 
     fig, ax = plt.subplots(figsize=(7, 4.2), dpi=120)
-    for run_dir in run_dirs:
-        rows = [r for r in read_metrics(Path(run_dir)) if r.get("normalized_return") is not None]
-        if rows:
-            ax.plot([r["samples"] for r in rows], [r["normalized_return"] for r in rows], label=_label(Path(run_dir)))
+    per_init: dict[str, int] = {}
+    motions = set()
+    for run_dir in map(Path, run_dirs):
+        samples, returns = learning_curve(run_dir)
+        info = run_info(run_dir)
+        motions.add(info["motion"])
+        colour = INIT_COLOURS.get(info["init"], "tab:gray")
+        style = LINE_STYLES[per_init.get(info["init"], 0) % len(LINE_STYLES)]
+        per_init[info["init"]] = per_init.get(info["init"], 0) + 1
+        label = f"{info['init'].upper()}: {run_dir.name}"
+        if len(samples) == 0:
+            ax.plot([], [], color=colour, linestyle=style, label=f"{label} (no episodes yet)")
+            continue
+        if len(samples) > 1 and smoothing > 0:
+            ax.plot(samples, returns, color=colour, alpha=0.25, linewidth=1)
+            ax.plot(samples, smooth(returns, smoothing), color=colour, linestyle=style, linewidth=2, label=label)
+        else:
+            ax.plot(samples, returns, color=colour, linestyle=style, linewidth=2, marker="o", label=label)
     ax.set_xlabel("samples")
+    ax.xaxis.set_major_formatter(EngFormatter())
     ax.set_ylabel("normalised return")
     ax.set_ylim(0, 1)
     ax.grid(alpha=0.3)
-    ax.legend(loc="lower right", fontsize=8)
-    ax.set_title("Learning curves")
+    if run_dirs:
+        ax.legend(loc="upper left", fontsize=8, title="init: run", title_fontsize=8)
+    ax.set_title(f"Learning curves: {', '.join(sorted(motions)) or 'no runs'}")
     fig.tight_layout()
     out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".png", dir=out.parent)
     os.close(fd)
-    fig.savefig(tmp)
-    plt.close(fig)
-    os.replace(tmp, out)
+    try:
+        fig.savefig(tmp)
+        os.replace(tmp, out)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    finally:
+        plt.close(fig)
     return out

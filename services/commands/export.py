@@ -1,0 +1,95 @@
+"""`sfv export RUN`: what a user takes away from a run.
+
+    sfv export RUN --onnx policy.onnx
+        the deterministic policy with its observation normalisation baked in (run it with
+        onnxruntime alone: `sfv eval --onnx`, `sfv render --onnx`)
+    sfv export RUN --motion rollout.npz --bvh rollout.bvh [--episodes 1] [--seconds T]
+        roll the policy out and record the simulated character's root and joint rotations at
+        every control step, as an sfv motion (.npz) and/or BVH (Y up, centimetres by default,
+        ZXY Euler channels; see services/export/bvh.py). With --episodes E > 1 each episode
+        goes to its own file: NAME_ep01.npz, NAME_ep02.npz, ...
+
+Prints one JSON object naming the files written.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+
+def register(sub) -> None:
+    p = sub.add_parser("export", help="export a run's policy (ONNX) or its rollouts (.npz motion, BVH)",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("run", help="run directory (newest checkpoint)")
+    p.add_argument("--onnx", default=None, help="write the policy as ONNX here")
+    p.add_argument("--motion", default=None, help="write the rollout as an sfv motion .npz here")
+    p.add_argument("--bvh", default=None, help="write the rollout as BVH here")
+    p.add_argument("--policy-onnx", default=None, help="roll out this exported ONNX policy instead of the checkpoint (no torch)")
+    p.add_argument("--episodes", type=int, default=1, help="episodes to record")
+    p.add_argument("--seconds", type=float, default=None, help="cap on each episode's length in seconds")
+    p.add_argument("--init", choices=("fsi", "rsi"), default="fsi", help="start at the clip's first frame or a random one")
+    p.add_argument("--seed", type=int, default=0, help="episode k uses seed + k (as sfv eval)")
+    p.add_argument("--units", choices=("cm", "m"), default="cm", help="BVH length unit")
+    p.set_defaults(handler=run)
+
+
+def _episode_path(path: str, episode: int, episodes: int) -> Path:
+    path = Path(path)
+    return path if episodes == 1 else path.with_name(f"{path.stem}_ep{episode + 1:02d}{path.suffix}")
+
+
+def _check_args(args) -> None:
+    from actors.errors import SfvError
+
+    if not (args.onnx or args.motion or args.bvh):
+        raise SfvError("export: give --onnx FILE, --motion FILE.npz and/or --bvh FILE.bvh")
+    if args.episodes < 1:
+        raise SfvError(f"export: --episodes must be positive, got {args.episodes}")
+    if args.seconds is not None and not args.seconds > 0:
+        raise SfvError(f"export: --seconds must be positive, got {args.seconds}")
+    for flag, suffix in (("motion", ".npz"), ("bvh", ".bvh")):
+        value = getattr(args, flag)
+        if value and Path(value).suffix.lower() != suffix:
+            raise SfvError(f"{value}: --{flag} must name a {suffix} file")
+    for value in (args.onnx, args.motion, args.bvh):
+        if value and not Path(value).resolve().parent.is_dir():
+            raise SfvError(f"{value}: folder {Path(value).resolve().parent} does not exist")
+
+
+def export_rollouts(args) -> list[dict]:
+    from threadpoolctl import threadpool_limits
+
+    from actors.motion_io import save_motion
+    from services.export.bvh import write_bvh
+    from services.export.policy_source import load_policy_source
+    from services.export.rollout import record_episode
+
+    source = load_policy_source(args.run, args.policy_onnx)
+    env = source.make_env()
+    written = []
+    for episode in range(args.episodes):
+        name = f"{env.motion.name} rollout of {source.description} (seed {args.seed + episode})"
+        with threadpool_limits(limits=1):  # batch-1 inference: BLAS threads only slow it down
+            motion, progress = record_episode(source.policy, env, args.seed + episode, args.init, args.seconds, name)
+        entry = {"episode": episode + 1, "frames": motion.num_frames, "seconds": motion.duration, "fell": progress.terminated,
+                 "normalized_return": progress.normalized_return}
+        if args.motion:
+            entry["motion"] = str(save_motion(motion, _episode_path(args.motion, episode, args.episodes)))
+        if args.bvh:
+            entry["bvh"] = str(write_bvh(motion, _episode_path(args.bvh, episode, args.episodes), args.units))
+        written.append(entry)
+    return written
+
+
+def run(args) -> int:
+    _check_args(args)
+    summary: dict = {"run": args.run}
+    if args.onnx:
+        from services.export.onnx_run import export_run_onnx
+
+        summary.update(export_run_onnx(args.run, args.onnx))
+    if args.motion or args.bvh:
+        summary["rollouts"] = export_rollouts(args)
+    print(json.dumps(summary))
+    return 0

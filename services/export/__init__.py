@@ -1,0 +1,1 @@
+"""What users take away from a run: the policy as ONNX, its motions as .npz and BVH."""

@@ -1,0 +1,67 @@
+"""Where a rendered or exported rollout gets its policy and environment from.
+
+Either a run directory's newest checkpoint (needs torch to read it), or an exported ONNX
+file (onnxruntime only: torch is never imported on that path). The environment settings
+come from the run's config.json when a run is given, else the defaults with `--motion`.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from actors.errors import SfvError
+from actors.imitation_env import EnvConfig, ImitationEnv
+from actors.motion_io import load_motion
+from services.run_dir import CONFIG_FILE
+
+
+@dataclass
+class PolicySource:
+    policy: object  # NumpyPolicy or OnnxPolicy: act(obs (1, obs_dim), deterministic=True)
+    env_config: EnvConfig
+    motion: str
+    description: str  # what the policy was loaded from, for captions and reports
+
+    def make_env(self) -> ImitationEnv:
+        return ImitationEnv(load_motion(self.motion), self.env_config)
+
+
+def read_run_config(run_dir: str | Path):
+    """The run's TrainConfig from config.json alone (no checkpoint, no torch)."""
+    from services.train_config import TrainConfig
+
+    path = Path(run_dir) / CONFIG_FILE
+    if not path.is_file():
+        raise SfvError(f"{run_dir}: not a run directory (no {CONFIG_FILE})")
+    try:
+        return TrainConfig.from_dict(json.loads(path.read_text()))
+    except (ValueError, TypeError) as exc:
+        raise SfvError(f"{path}: unreadable run config ({type(exc).__name__}: {exc})") from None
+
+
+def load_policy_source(run_dir: str | Path | None, onnx: str | Path | None = None, motion: str | None = None) -> PolicySource:
+    """Policy and env for a run directory, an ONNX file, or both (ONNX policy, run's env)."""
+    if run_dir is None and onnx is None:
+        raise SfvError("give a run directory or --onnx FILE")
+    if onnx is not None:
+        from learner.onnx_export import OnnxPolicy
+
+        if run_dir is not None:
+            config = read_run_config(run_dir)
+            env_config, motion_name = config.env, motion or config.motion
+        elif motion is None:
+            raise SfvError(f"{onnx}: an ONNX policy without a run directory needs --motion")
+        else:
+            env_config, motion_name = EnvConfig(), motion
+        policy = OnnxPolicy(onnx, num_threads=1)  # one observation per call: threads only add overhead
+        description = Path(onnx).name
+    else:
+        from actors.policy import NumpyPolicy
+        from services.evaluate import load_run
+
+        config, weights = load_run(run_dir)
+        env_config, motion_name = config.env, motion or config.motion
+        policy = NumpyPolicy(weights, max_batch=1)
+        description = Path(run_dir).name
+    return PolicySource(policy, env_config, motion_name, description)

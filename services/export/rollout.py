@@ -1,0 +1,77 @@
+"""Deterministic policy rollouts, step by step, and their recording as a ReferenceMotion.
+
+`episode_steps` is a generator: it yields once after reset and once after every control
+step, so a caller can look at (render, record) or act on (push) `env.data` in between.
+Episode k resets with seed `seed + k` and the given init, as `services.evaluate` does, so a
+rendered or exported episode is the one `sfv eval` scores.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterator
+
+import numpy as np
+
+from actors.imitation_env import ImitationEnv
+from actors.motion import ReferenceMotion
+from actors.skeleton import NUM_JOINTS
+
+
+@dataclass
+class StepProgress:
+    step: int  # control steps taken so far in this episode
+    max_steps: int  # steps this episode may run (the env's horizon, capped by --seconds)
+    reward: float  # reward of the last step (0 after reset)
+    total_reward: float
+    normalized_return: float  # total so far over the most the episode could earn
+    terminated: bool  # fell (or diverged)
+    done: bool
+
+
+def episode_limit(env: ImitationEnv, seconds: float | None) -> int:
+    limit = env.max_episode_steps
+    if seconds is not None:
+        limit = min(limit, max(1, int(round(seconds * env.config.control_hz))))
+    return limit
+
+
+def episode_steps(policy, env: ImitationEnv, seed: int, init: str, seconds: float | None = None) -> Iterator[StepProgress]:
+    obs, _ = env.reset(seed=seed, options={"init": init})
+    obs_row = np.empty((1, env.observation_space.shape[0]), np.float32)
+    obs_row[0] = obs
+    limit = episode_limit(env, seconds)
+    best = env.max_reward * limit
+    progress = StepProgress(0, limit, 0.0, 0.0, 0.0, False, False)
+    yield progress
+    for step in range(1, limit + 1):
+        action, _ = policy.act(obs_row, deterministic=True)
+        obs, reward, terminated, truncated, _ = env.step(action[0])
+        obs_row[0] = obs
+        progress.step, progress.reward = step, float(reward)
+        progress.total_reward += float(reward)
+        progress.normalized_return = progress.total_reward / best
+        progress.terminated = bool(terminated)
+        progress.done = bool(terminated or truncated or step == limit)
+        yield progress
+        if progress.done:
+            return
+
+
+def record_episode(policy, env: ImitationEnv, seed: int, init: str, seconds: float | None, name: str) -> tuple[ReferenceMotion, StepProgress]:
+    """The simulated character's root and joint rotations at every control step (reset included)."""
+    root_pos = root_rot = joint_rot = None
+    count = 0
+    for progress in episode_steps(policy, env, seed, init, seconds):
+        if root_pos is None:  # after reset, when the episode's length is known
+            rows = progress.max_steps + 1
+            root_pos, root_rot, joint_rot = np.empty((rows, 3)), np.empty((rows, 4)), np.empty((rows, NUM_JOINTS, 4))
+        qpos = env.data.qpos
+        if not np.isfinite(qpos).all():
+            break  # the simulation diverged on this step (the env ends the episode as a fall)
+        root_pos[count] = qpos[0:3]
+        root_rot[count] = qpos[3:7]
+        env.layout.joint_quats_from_qpos(qpos, joint_rot[count])
+        count += 1
+    frame_times = np.arange(count) / env.config.control_hz
+    motion = ReferenceMotion(name, frame_times, root_pos[:count], root_rot[:count], joint_rot[:count], loop=False)
+    return motion, progress
