@@ -1,0 +1,86 @@
+"""Suite `system`: end-to-end `sfv train` throughput against the physics bound.
+
+Each repetition runs the real training driver (`services.trainer.Trainer`: Ray actors,
+embedded ASI server, PPO learner, metrics, checkpoint, learning-curve plot) for a few
+iterations with 1 and with 2 workers, and times the raw physics bound on one core in
+between. Reported: `overall_samples_per_s` of each run (samples over the training loop's
+wall time, learning included) and its ratio to raw bound x workers, the most those cores
+could simulate with nothing else to do.
+"""
+from __future__ import annotations
+
+import gc
+import tempfile
+from pathlib import Path
+
+from services.bench.config import TARGET_SYSTEM_2W_OVER_RAW, BenchConfig
+from services.bench.env_suite import env_config_for
+from services.bench.measure import Summary, interleaved, rate_for, ratio
+from services.bench.result import SuiteResult
+from services.bench.steppers import RawPhysics
+
+
+def train_config(config: BenchConfig, out: Path, workers: int, iterations: int):
+    from services.train_config import TrainConfig
+
+    train = TrainConfig(motion=config.motion, out=str(out), workers=workers, envs_per_worker=config.envs_per_worker,
+                        init="asi", seed=config.seed, env=env_config_for(config.physics_hz))
+    train.samples = iterations * train.ppo.batch_size
+    return train
+
+
+def run_system_suite(config: BenchConfig, log) -> SuiteResult:
+    import ray
+
+    from services.trainer import Trainer
+
+    if any(w < 1 for w in config.system_workers):
+        raise ValueError(f"system_workers must be >= 1, got {config.system_workers}")
+    started_ray = not ray.is_initialized()
+    if started_ray:
+        # address="local": a private single-node Ray, never a cluster someone else started here.
+        ray.init(address="local", num_cpus=max(config.system_workers), include_dashboard=False,
+                 log_to_driver=False, configure_logging=False)
+    raw = RawPhysics(env_config_for(config.physics_hz))
+    records: dict[int, list[dict]] = {w: [] for w in config.system_workers}
+    try:
+        with tempfile.TemporaryDirectory(prefix="sfv-bench-system-") as tmp:
+            runs = {"n": 0}
+
+            def train(workers: int, iterations: int) -> float:
+                runs["n"] += 1
+                record = Trainer(train_config(config, Path(tmp) / f"run{runs['n']}", workers, iterations), progress=False).run()
+                gc.collect()  # drop the run's actor handles so Ray frees their CPUs before the next run
+                records[workers].append(record)
+                return record["overall_samples_per_s"]
+
+            log("  warm-up: one iteration with every worker count")
+            for workers in config.system_workers:
+                train(workers, 1)
+            for kept in records.values():
+                kept.clear()
+            variants = {"raw_steps_per_s": lambda: rate_for(config.seconds, raw.chunk).wall}
+            for workers in config.system_workers:
+                variants[f"system_{workers}w_samples_per_s"] = lambda w=workers: train(w, config.system_iterations)
+            values = interleaved(variants, config.repeats, warmup=0,
+                                 on_result=lambda r, n, v: log(f"  rep {r + 1}: {n} = {v:,.0f}"))
+    finally:
+        if started_ray:
+            ray.shutdown()
+    metrics = {"raw_steps_per_s": Summary(tuple(values["raw_steps_per_s"]), "control steps/s (1 core)")}
+    for workers in config.system_workers:
+        name = f"system_{workers}w_samples_per_s"
+        metrics[name] = Summary(tuple(values[name]), "samples/s incl. learning")
+        sampling = tuple(r["sampling_samples_per_s"] for r in records[workers])
+        metrics[f"system_{workers}w_sampling_samples_per_s"] = Summary(sampling, "samples/s while sampling (last iteration)")
+    settings = {"motion": config.motion, "physics_hz": config.physics_hz, "envs_per_worker": config.envs_per_worker,
+                "iterations_per_run": config.system_iterations, "batch_size": 4096, "init": "asi",
+                "system_workers": list(config.system_workers), "ray": "local, num_cpus = max workers", "repeats": config.repeats}
+    result = SuiteResult("system", metrics, settings=settings)
+    for workers in config.system_workers:
+        target = TARGET_SYSTEM_2W_OVER_RAW if workers == 2 else None
+        result.ratios[f"system_{workers}w_over_raw"] = ratio(metrics, f"system_{workers}w_samples_per_s", "raw_steps_per_s",
+                                                             scale=workers, target=target)
+    result.notes.append("the training loop's time includes the first sample() of fresh actors, the final checkpoint and "
+                        "learning-curve plot, as in `sfv train`; actor start-up is excluded")
+    return result

@@ -1,0 +1,90 @@
+"""`sfv bench --suite env|worker|learner|system|peer|pose|all [--quick] --out FILE.json`."""
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+from pathlib import Path
+
+from services.errors import SfvError
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    from services.bench.config import SUITES, BenchConfig
+
+    defaults = BenchConfig()
+    p = subparsers.add_parser("bench", help="throughput benchmarks: physics bound, env, worker, learner, training, peer, pose")
+    p.add_argument("--suite", default="all", help=f"{', '.join(SUITES)} or all; several comma-separated (default all)")
+    p.add_argument("--out", type=Path, required=True, help="JSON report to write (atomically)")
+    p.add_argument("--quick", action="store_true", help="3 repetitions of 0.5 s, 2-iteration training runs (smoke runs, CI)")
+    p.add_argument("--repeats", type=int, default=None, help=f"measured repetitions per variant (default {defaults.repeats}, quick 3)")
+    p.add_argument("--seconds", type=float, default=None, help=f"length of one timed stepping measurement (default {defaults.seconds}, quick 0.5)")
+    p.add_argument("--physics-hz", type=float, default=defaults.physics_hz, help="physics rate of the env/worker/system suites")
+    p.add_argument("--envs-per-worker", type=int, default=defaults.envs_per_worker, help="M, envs of the worker in the env and system suites")
+    p.add_argument("--system-iterations", type=int, default=None, help=f"PPO iterations per training run (default {defaults.system_iterations}, quick 2)")
+    p.add_argument("--peer-python", default=None, help="interpreter that has pybullet_envs + gym 0.26.2 (default: this one)")
+    p.add_argument("--pose-video", default=None, help="video of the pose suite (default ../shared pose2sim cam01.mp4)")
+    p.add_argument("--pose-models", default=None, help="BlazePose model directory (default $SFV_POSE_MODELS, the cache, ../shared)")
+    p.add_argument("--seed", type=int, default=0, help="seed of random actions, policy init and learner data")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.set_defaults(handler=run_bench)
+
+
+def build_config(args):
+    from services.bench.config import BenchConfig
+    from services.bench.env_suite import env_config_for
+    from services.bench.runner import parse_suites
+
+    try:
+        suites = parse_suites(args.suite)
+    except ValueError as exc:
+        raise SfvError(f"--suite {args.suite!r}: {exc}") from None
+    overrides = {"suites": suites, "physics_hz": args.physics_hz, "envs_per_worker": args.envs_per_worker, "seed": args.seed,
+                 "peer_python": args.peer_python, "pose_video": args.pose_video, "pose_models": args.pose_models}
+    for name in ("repeats", "seconds", "system_iterations"):
+        if getattr(args, name) is not None:
+            overrides[name] = getattr(args, name)
+    config = BenchConfig.quick_defaults(**overrides) if args.quick else BenchConfig(**overrides)
+    for name in ("repeats", "seconds", "system_iterations", "envs_per_worker", "physics_hz"):
+        if not getattr(config, name) > 0:
+            raise SfvError(f"--{name.replace('_', '-')} must be positive, got {getattr(config, name)}")
+    try:
+        env_config_for(config.physics_hz)
+    except ValueError as exc:
+        raise SfvError(f"--physics-hz: {exc}") from None
+    return config
+
+
+def run_bench(args) -> int:
+    from services.bench.report import markdown_table, write_json_atomic
+    from services.bench.runner import run_benchmarks
+
+    config = build_config(args)
+    out = args.out
+    if out.suffix != ".json":
+        raise SfvError(f"{out}: the report must be a .json file")
+    if not out.parent.is_dir():
+        raise SfvError(f"{out}: directory {out.parent} does not exist")
+    log = (lambda message: None) if args.quiet else (lambda message: print(message, file=sys.stderr, flush=True))
+    report = run_benchmarks(config, log, command=command_line(args))
+    write_json_atomic(out, report)
+    print(markdown_table(report))
+    print(f"\nwritten to {out}")
+    return 0
+
+
+def command_line(args) -> str:
+    """The `sfv bench` command that reproduces this run (every option that differs from its default)."""
+    from services.bench.config import BenchConfig
+
+    defaults = BenchConfig()
+    parts = ["sfv", "bench", "--suite", args.suite]
+    if args.quick:
+        parts.append("--quick")
+    for name in ("repeats", "seconds", "physics_hz", "envs_per_worker", "system_iterations", "peer_python",
+                 "pose_video", "pose_models", "seed"):
+        value = getattr(args, name)
+        default = getattr(defaults, name) if name in ("physics_hz", "envs_per_worker", "seed") else None
+        if value is not None and value != default:
+            parts += [f"--{name.replace('_', '-')}", f"{value:g}" if isinstance(value, float) else str(value)]
+    parts += ["--out", str(args.out)]
+    return " ".join(shlex.quote(p) for p in parts)
