@@ -5,6 +5,8 @@ with `--redis-url`) on a free port of `asi_host` (loopback by default). With a R
 and no external server, bind `--asi-host` to the head's cluster-network address so that
 workers on other nodes reach it, or run `sfv asi-server` on its own.
 A shared token, when set in SFV_ASI_TOKEN, is required by the server and sent by clients.
+With `--asi-tls-ca FILE` the driver and the workers talk TLS to an external `sfv asi-server
+--tls-cert/--tls-key` and check its certificate against FILE (the embedded server is plain).
 """
 from __future__ import annotations
 
@@ -13,6 +15,7 @@ import os
 import numpy as np
 
 from actors.asi_client import ASIClient
+from actors.errors import SfvError
 from services.train_config import TrainConfig
 
 
@@ -25,6 +28,13 @@ class ASIConnection:
         self.client: ASIClient | None = None
 
     def __enter__(self) -> "ASIConnection":
+        try:
+            return self._open()
+        except BaseException:
+            self.__exit__()  # an embedded server already started must not outlive the failure
+            raise
+
+    def _open(self) -> "ASIConnection":
         if self.address is None:
             from services.asi.server import serve
             from services.asi.store import InMemoryStore
@@ -37,8 +47,14 @@ class ASIConnection:
                 store = InMemoryStore()
             self._server, _ = serve(0, store, host=self.config.asi_host, token=self.token)
             self.address = self._server.address
-        self.client = ASIClient(self.address, self.config.job_id, token=self.token)
-        self.client.wait_until_ready(timeout=15.0)
+        self.client = ASIClient(self.address, self.config.job_id, token=self.token, tls_root_cert=self.config.asi_tls_ca)
+        try:
+            self.client.wait_until_ready(timeout=15.0)
+        except SfvError as exc:
+            if self._server is not None:
+                raise
+            tls = "with TLS (--asi-tls-ca)" if self.config.asi_tls_ca else "without TLS (no --asi-tls-ca)"
+            raise SfvError(f"{exc}; is `sfv asi-server` running there, and does it serve {tls}?") from None
         return self
 
     def create_job(self, reference_states: np.ndarray, reference_phases: np.ndarray):

@@ -10,6 +10,27 @@ CONFIG_FILE = "config.json"
 METRICS_FILE = "metrics.jsonl"
 
 
+def checkpoint_files(run_dir: Path) -> list[Path]:
+    """Every `checkpoint_<iteration>.pt` in the run directory, oldest first, valid or not (temp files excluded)."""
+    from learner.checkpoint import CHECKPOINT_NAME
+
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        return []
+    named = [(int(m.group(1)), entry) for entry in run_dir.iterdir() if (m := CHECKPOINT_NAME.match(entry.name)) and entry.is_file()]
+    return [entry for _, entry in sorted(named)]
+
+
+def remove_stale_temp_files(run_dir: Path) -> list[str]:
+    """Delete `.<name>.<random>.tmp` files that a killed process left mid atomic write; returns their names."""
+    removed = []
+    for path in Path(run_dir).glob(".*.tmp"):
+        if path.is_file():
+            path.unlink(missing_ok=True)
+            removed.append(path.name)
+    return removed
+
+
 def write_json_atomic(path: Path, obj) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     with os.fdopen(fd, "w") as f:
@@ -19,15 +40,20 @@ def write_json_atomic(path: Path, obj) -> None:
 
 
 class MetricsLog:
-    """One JSON line per iteration, plus the same scalars as TensorBoard events."""
+    """One JSON line per iteration, plus the same scalars as TensorBoard events.
 
-    def __init__(self, run_dir: Path):
+    `resumed_at_samples`: the run continues from a checkpoint taken at that sample count;
+    TensorBoard events logged after it by the interrupted process are purged.
+    """
+
+    def __init__(self, run_dir: Path, resumed_at_samples: int | None = None):
         self.path = run_dir / METRICS_FILE
         self._tb = None
         try:
             from torch.utils.tensorboard import SummaryWriter
 
-            self._tb = SummaryWriter(str(run_dir / "tb"))
+            purge = None if resumed_at_samples is None else resumed_at_samples + 1
+            self._tb = SummaryWriter(str(run_dir / "tb"), purge_step=purge)
         except ImportError:  # tensorboard is a dependency; keep training if it is broken
             pass
 
@@ -44,6 +70,29 @@ class MetricsLog:
     def close(self) -> None:
         if self._tb is not None:
             self._tb.close()
+
+
+def drop_metrics_after(run_dir: Path, samples: int) -> int:
+    """Rewrite metrics.jsonl without the rows past `samples` (iterations a killed run did after
+    its last checkpoint, redone on resume); returns how many rows went."""
+    path = Path(run_dir) / METRICS_FILE
+    if not path.exists():
+        return 0
+    lines = path.read_text().splitlines()
+    kept = []
+    for line in lines:
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:
+            continue  # a line cut by the kill
+        if row.get("samples", 0) <= samples:
+            kept.append(line)
+    if len(kept) != len(lines):
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        with os.fdopen(fd, "w") as f:
+            f.write("".join(line + "\n" for line in kept))
+        os.replace(tmp, path)
+    return len(lines) - len(kept)
 
 
 def read_metrics(run_dir: Path) -> list[dict]:

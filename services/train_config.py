@@ -25,6 +25,8 @@ class TrainConfig:
     asi_address: str | None = field(default=None, metadata={"help": "host:port of a running `sfv asi-server`; an embedded server when absent"})
     asi_host: str = field(default="127.0.0.1", metadata={"help": "interface the embedded ASI server binds (0.0.0.0 only inside a private cluster network)"})
     redis_url: str | None = field(default=None, metadata={"help": "Redis URL for the embedded ASI server's store (in-memory when absent)"})
+    asi_tls_ca: str | None = field(default=None, metadata={"help": "PEM root certificate of a TLS `sfv asi-server` (a path readable on every node)"})
+    asi_outage_s: float = field(default=30.0, metadata={"help": "seconds a worker keeps retrying an unreachable ASI server for starts before training stops"})
     asi_components: int = field(default=10, metadata={"help": "k, Gaussian components of the ASI distribution"})
     asi_episodes_per_update: int = field(default=2000, metadata={"help": "episodes reported per ASI gradient step (paper: 2000)"})
     asi_step_size: float = field(default=0.001, metadata={"help": "ASI step size alpha_rho (paper: 0.001)"})
@@ -43,9 +45,14 @@ class TrainConfig:
 
         if self.init not in INIT_MODES:
             raise SfvError(f"--init must be one of {', '.join(INIT_MODES)}, got {self.init!r}")
-        for name in ("workers", "envs_per_worker", "samples", "asi_components", "asi_episodes_per_update", "checkpoint_every"):
+        for name in ("workers", "envs_per_worker", "samples", "asi_components", "asi_episodes_per_update", "checkpoint_every",
+                     "worker_timeout_s"):
             if getattr(self, name) <= 0:
                 raise SfvError(f"--{name.replace('_', '-')} must be positive, got {getattr(self, name)}")
+        if self.asi_tls_ca and not self.asi_address:
+            raise SfvError("--asi-tls-ca needs --asi-address: the embedded ASI server does not serve TLS")
+        if self.asi_outage_s < 0:
+            raise SfvError(f"--asi-outage-s must be >= 0, got {self.asi_outage_s}")
 
     @property
     def steps_per_worker(self) -> int:

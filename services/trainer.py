@@ -5,10 +5,15 @@ Roles follow RLlib's new stack / sample-factory: `RolloutWorker`s (actors/) only
 object store and trajectories back as numpy arrays. `serial=True` runs the same workers in
 this process without Ray (debugging, CI, machines without Ray).
 
-Faults: a worker that dies is restarted by Ray (`max_restarts=-1`); its share of the batch
-is handed to a worker that is alive, so an iteration never waits on a dead process. Every
-batch is checked to come from the current policy version. A non-finite observation, reward
-or gradient stops training with a message, before any checkpoint could be poisoned.
+Faults (docs/faults.md has the measured numbers): a worker that dies is restarted by Ray
+(`max_restarts=-1`); its share of the batch is handed to a worker that is alive, so an
+iteration never waits on a dead process (`worker_failures`, `worker_restarts` in
+metrics.jsonl). A worker that hangs past `worker_timeout_s` is killed and restarted the same
+way. A worker that raises SfvError (ASI server gone for longer than `asi_outage_s`, a request
+the server refuses) stops training with that message. Every batch is checked to come from
+one policy version. A non-finite observation, reward or gradient stops training with a
+message naming it, before any checkpoint could be poisoned. `--resume` skips (with a
+warning) a newest checkpoint that fails its integrity check and resumes from the one before.
 """
 from __future__ import annotations
 
@@ -26,9 +31,11 @@ from actors.imitation_env import ImitationEnv
 from actors.motion_io import load_motion
 from actors.rollout_worker import RolloutWorker, WorkerSpec
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
+from learner.errors import NonFiniteError
 from learner.ppo import PPOLearner
 from services.asi_setup import ASIConnection
-from services.run_dir import CONFIG_FILE, MetricsLog, write_json_atomic
+from services.run_dir import (CONFIG_FILE, MetricsLog, checkpoint_files, drop_metrics_after, remove_stale_temp_files,
+                              write_json_atomic)
 from services.train_config import TrainConfig
 
 log = logging.getLogger("sfv.train")
@@ -41,24 +48,35 @@ def default_job_id(config: TrainConfig) -> str:
 
 
 class Trainer:
+    worker_class = RolloutWorker  # what `_make_workers` instantiates (a subclass may wrap it)
+
     def __init__(self, config: TrainConfig, resume: bool = False, progress: bool = True):
         config.validate()
         self.config = config
         self.resume = resume
         self.progress = progress
         self.run_dir = Path(config.out)
-        self.worker_failures = 0
+        self.worker_failures = 0  # batch shares lost to a dead, hung or failing worker and reissued
+        self.worker_restarts = 0  # worker processes seen replaced by Ray (a new pid)
+        self._worker_pids: dict[int, int] = {}
         self.samples = 0
         self.iteration = 0
 
     # ------------------------------------------------------------------ setup
     def _prepare_run_dir(self) -> dict | None:
         self.run_dir.mkdir(parents=True, exist_ok=True)
-        latest = latest_checkpoint(self.run_dir)
-        if latest is not None and not self.resume:
+        for name in remove_stale_temp_files(self.run_dir):  # a write the killed process never finished
+            log.warning("%s: removed %s, left by an interrupted write", self.run_dir, name)
+        existing = checkpoint_files(self.run_dir)
+        if existing and not self.resume:
             raise SfvError(f"{self.run_dir}: holds checkpoints already; pass --resume to continue or choose another --out")
+        latest = latest_checkpoint(self.run_dir) if self.resume else None
+        corrupt = [path for path in existing if latest is None or path.name > latest.name]
+        for path in corrupt:  # newer than the one resumed from, yet unreadable: say so, never load it
+            log.warning("skipping checkpoint %s: %s", path.name, _load_error(path))
         if self.resume and latest is None:
-            raise SfvError(f"{self.run_dir}: --resume given but there is no checkpoint to resume from")
+            detail = f" ({_load_error(corrupt[-1])})" if corrupt else ""
+            raise SfvError(f"{self.run_dir}: --resume given but there is no valid checkpoint to resume from{detail}")
         if self.config.job_id is None:
             self.config.job_id = default_job_id(self.config)
         write_json_atomic(self.run_dir / CONFIG_FILE, self.config.to_dict())
@@ -73,12 +91,15 @@ class Trainer:
     def _make_workers(self, spec: WorkerSpec):
         n = self.config.workers
         if self.config.serial:
-            return [RolloutWorker(spec, i) for i in range(n)]
+            workers = [self.worker_class(spec, i) for i in range(n)]
+            self._worker_pids = {i: w.pid() for i, w in enumerate(workers)}
+            return workers
         import ray
 
-        remote_cls = ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=0)(RolloutWorker)
+        remote_cls = ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=0)(self.worker_class)
         workers = [remote_cls.remote(spec, i) for i in range(n)]
-        ray.get([w.ping.remote() for w in workers])  # construction errors surface here
+        pids = ray.get([w.pid.remote() for w in workers])  # construction errors surface here
+        self._worker_pids = dict(enumerate(pids))
         return workers
 
     def _init_ray(self):
@@ -96,37 +117,81 @@ class Trainer:
     # ------------------------------------------------------------- collection
     def _collect(self, workers, weights, version: int, steps: int) -> list[dict]:
         if self.config.serial:
-            return [w.sample(weights, version, steps) for w in workers]
+            results = [w.sample(weights, version, steps) for w in workers]
+        else:
+            results = self._collect_remote(workers, weights, version, steps)
+        for result in results:
+            self._note_worker_pid(int(result["worker_index"]), int(result["worker_pid"]))
+        return results
+
+    def _collect_remote(self, workers, weights, version: int, steps: int) -> list[dict]:
+        """One share per worker; a share lost to a dead or hung worker goes to a worker that has answered."""
         import ray
-        from ray.exceptions import GetTimeoutError, RayActorError, RayTaskError
+        from ray.exceptions import RayError, RayTaskError
 
         weights_ref = ray.put(weights)
-        pending = {w.sample.remote(weights_ref, version, steps): i for i, w in enumerate(workers)}
-        results, alive = [], set()
-        while pending:
+        pending: dict = {}  # object ref -> worker index
+        results, idle, orphans, failures = [], [], [], 0  # idle: answered, free; orphans: lost shares, no taker yet
+        takebacks = 0
+        max_failures = 3 * len(workers)  # beyond this the fault is not transient: stop, do not spin
+
+        def submit(index: int) -> None:
+            pending[workers[index].sample.remote(weights_ref, version, steps)] = index
+
+        def lost(index: int, reason: str) -> None:
+            nonlocal failures
+            failures += 1
+            self.worker_failures += 1
+            if failures > max_failures:
+                raise SfvError(f"rollout workers failed {failures} times in iteration {version + 1}, giving up (last: worker {index}: {reason})")
+            log.warning("rollout worker %d failed (%s); its share is reissued", index, reason)
+            if idle:
+                submit(idle.pop(0))
+            else:
+                orphans.append(index)
+
+        for index in range(len(workers)):
+            submit(index)
+        while pending or orphans:
+            if not pending:  # nobody left to answer: the restarted workers take their own shares back
+                time.sleep(min(5.0, 0.5 * 2 ** takebacks))  # give Ray time to restart them; do not burn retries
+                takebacks += 1
+                for index in orphans:
+                    submit(index)
+                orphans.clear()
             ready, _ = ray.wait(list(pending), num_returns=1, timeout=self.config.worker_timeout_s)
-            if not ready:
-                # A worker hangs: give every outstanding share to a worker that has answered.
-                stuck = list(pending)
-                for ref in stuck:
-                    ray.cancel(ref, force=True)
-                    index = pending.pop(ref)
-                    self.worker_failures += 1
-                    log.warning("worker %d timed out; its share goes to another worker", index)
-                    target = min(alive) if alive else index
-                    pending[workers[target].sample.remote(weights_ref, version, steps)] = target
+            if not ready:  # every outstanding worker hangs: kill them (Ray restarts them)
+                for ref, index in list(pending.items()):
+                    del pending[ref]
+                    ray.kill(workers[index], no_restart=False)
+                    lost(index, f"no answer within {self.config.worker_timeout_s:g} s, killed")
                 continue
             for ref in ready:
                 index = pending.pop(ref)
                 try:
-                    results.append(ray.get(ref))
-                    alive.add(index)
-                except (RayActorError, RayTaskError, GetTimeoutError) as exc:
-                    self.worker_failures += 1
-                    target = min(alive) if alive else index  # a live worker, else the restarted one
-                    log.warning("worker %d failed (%s); its share goes to worker %d", index, type(exc).__name__, target)
-                    pending[workers[target].sample.remote(weights_ref, version, steps)] = target
+                    result = ray.get(ref)
+                except RayTaskError as exc:
+                    cause = getattr(exc, "cause", None)
+                    if isinstance(cause, SfvError):  # a refused request or a lasting outage: not the worker's fault
+                        raise SfvError(f"rollout worker {index}: {cause}") from None
+                    lost(index, f"{type(cause or exc).__name__}: {str(cause or exc).splitlines()[0][:200]}")
+                except RayError as exc:  # the process died (Ray restarts it) or its result was lost
+                    lost(index, type(exc).__name__)
+                else:
+                    results.append(result)
+                    if orphans:  # this worker is free now: it takes over a lost share
+                        orphans.pop(0)
+                        submit(index)
+                    else:
+                        idle.append(index)
         return results
+
+    def _note_worker_pid(self, index: int, pid: int) -> None:
+        previous = self._worker_pids.get(index)
+        if previous is not None and previous != pid:
+            self.worker_restarts += 1
+            log.warning("rollout worker %d was restarted (pid %d -> %d)", index, previous, pid)
+        self._worker_pids[index] = pid
 
     @staticmethod
     def _merge(results: list[dict], version: int) -> dict:
@@ -139,6 +204,8 @@ class Trainer:
                 batch[k] = np.concatenate([r[k] for r in results])
         batch["asi_version"] = max(int(r["asi_version"]) for r in results)
         batch["asi_dropped_reports"] = sum(int(r["asi_dropped_reports"]) for r in results)
+        batch["policy_versions"] = sorted(versions)
+        batch["worker_indices"] = [int(r["worker_index"]) for r in results]
         return batch
 
     # -------------------------------------------------------------------- run
@@ -150,22 +217,32 @@ class Trainer:
         learner = PPOLearner(OBS_DIM, env.action_space.shape[0], config.ppo, device=config.device)
         asi_version = 0
         if checkpoint is not None:
-            learner.load_state_dict(checkpoint["learner"])
-            self.samples = int(checkpoint["samples"])
-            self.iteration = int(checkpoint["iteration"])
-            self.worker_failures = int(checkpoint.get("worker_failures", 0))
-            asi_version = int(checkpoint.get("asi_version", 0))
-        self._init_ray()
+            asi_version = self._restore(learner, checkpoint)
+        # The ASI server (and its Redis) first: a wrong address fails in seconds, before Ray starts.
         with ASIConnection(config) as asi:
             info = asi.create_job(ref_states, ref_phases)
             spec = WorkerSpec(motion, config.env, config.envs_per_worker, config.init, config.seed, config.ppo.gamma,
-                              asi.address, config.job_id, asi.token)
+                              asi.address, config.job_id, asi.token, asi_tls_ca=config.asi_tls_ca,
+                              asi_outage_s=config.asi_outage_s)
+            self._init_ray()
             workers = self._make_workers(spec)
-            metrics = MetricsLog(self.run_dir)
+            metrics = MetricsLog(self.run_dir, resumed_at_samples=self.samples if checkpoint is not None else None)
             try:
                 return self._loop(learner, workers, metrics, max(asi_version, info.version))
             finally:
                 metrics.close()
+
+    def _restore(self, learner: PPOLearner, checkpoint: dict) -> int:
+        """Learner state and counters from a checkpoint; metrics rows after it are dropped. Returns its ASI version."""
+        learner.load_state_dict(checkpoint["learner"])
+        self.samples = int(checkpoint["samples"])
+        self.iteration = int(checkpoint["iteration"])
+        self.worker_failures = int(checkpoint.get("worker_failures", 0))
+        self.worker_restarts = int(checkpoint.get("worker_restarts", 0))
+        dropped = drop_metrics_after(self.run_dir, self.samples)
+        if dropped:
+            log.warning("%s: dropped %d metrics rows written after the checkpoint (iterations redone now)", self.run_dir, dropped)
+        return int(checkpoint.get("asi_version", 0))
 
     def _loop(self, learner: PPOLearner, workers, metrics: MetricsLog, asi_version: int) -> dict:
         from tqdm import tqdm
@@ -181,7 +258,7 @@ class Trainer:
             results = self._collect(workers, learner.policy_weights(), version, steps)
             batch = self._merge(results, version)
             t_sample = time.perf_counter() - t0
-            losses = learner.update(batch)  # raises NonFiniteError on NaN/inf, weights untouched
+            losses = self._update(learner, batch)
             n = batch["rewards"].size
             self.samples += n
             self.iteration += 1
@@ -199,6 +276,15 @@ class Trainer:
         record["overall_samples_per_s"] = (self.samples - start_samples) / max(elapsed, 1e-9)
         return record
 
+    def _update(self, learner: PPOLearner, batch: dict) -> dict:
+        try:
+            return learner.update(batch)  # raises NonFiniteError on NaN/inf, weights untouched
+        except NonFiniteError as exc:
+            newest = latest_checkpoint(self.run_dir)
+            raise NonFiniteError(
+                f"{self.run_dir}: iteration {self.iteration + 1} rejected, non-finite values ({exc}); training stopped, "
+                f"nothing of it applied or checkpointed (newest checkpoint: {newest.name if newest else 'none'})") from None
+
     def _record(self, batch, losses, n, seconds, sample_seconds, asi_version) -> dict:
         episodes = batch["episode_normalized_returns"]
         mean = lambda a: float(np.mean(a)) if len(a) else None  # noqa: E731
@@ -215,6 +301,10 @@ class Trainer:
             "asi_version": int(asi_version),
             "asi_dropped_reports": int(batch["asi_dropped_reports"]),
             "worker_failures": self.worker_failures,
+            "worker_restarts": self.worker_restarts,
+            "policy_version": batch["policy_versions"][0],
+            "batch_policy_versions": batch["policy_versions"],
+            "batch_worker_indices": batch["worker_indices"],
             "time": time.time(),
         }
         record.update({k if "/" in k else f"losses/{k}": float(v) for k, v in losses.items()})
@@ -228,6 +318,7 @@ class Trainer:
             "iteration": self.iteration,
             "asi_version": int(asi_version),
             "worker_failures": self.worker_failures,
+            "worker_restarts": self.worker_restarts,
             "config": self.config.to_dict(),
         }
         save_checkpoint(checkpoint_path(self.run_dir, self.iteration), payload)
@@ -242,6 +333,14 @@ class Trainer:
             plot_learning_curves([self.run_dir], self.run_dir / "learning_curve.png")
         except Exception as exc:  # a plot must never stop training
             log.warning("learning-curve plot failed: %s", exc)
+
+
+def _load_error(path: Path) -> str:
+    try:
+        load_checkpoint(path)
+    except SfvError as exc:
+        return str(exc)
+    return "valid, but newer than the checkpoint resumed from"
 
 
 def _fmt(value) -> str:

@@ -17,12 +17,20 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, help="run directory")
     p.add_argument("--ray-address", default=None, help="join a Ray cluster ('auto' or host:port); local Ray when absent")
     p.add_argument("--asi-address", default=None, help="host:port of an `sfv asi-server`; embedded when absent")
-    p.add_argument("--asi-host", default="127.0.0.1", help="interface the embedded ASI server binds")
+    p.add_argument("--asi-host", default="127.0.0.1",
+                   help="interface the embedded ASI server binds; 127.0.0.1 serves workers on this node only, "
+                        "on a multi-node Ray cluster give the head's cluster IP or use --asi-address")
     p.add_argument("--redis-url", default=None, help="Redis store for the embedded ASI server")
+    p.add_argument("--asi-tls-ca", default=None, help="PEM root certificate: talk TLS to an `sfv asi-server --tls-cert`")
+    p.add_argument("--asi-outage-s", type=float, default=30.0, help="seconds workers wait out an unreachable ASI server before training stops")
+    p.add_argument("--worker-timeout-s", type=float, default=None,
+                   help="kill and restart a rollout worker whose share takes longer (default 300)")
     p.add_argument("--resume", action="store_true", help="continue from the newest checkpoint in --out")
     p.add_argument("--seed", type=int, default=0, help="base seed (worker i: seed + i)")
     p.add_argument("--serial", action="store_true", help="run workers in this process without Ray")
     p.add_argument("--batch-size", type=int, default=None, help="samples per PPO iteration (default 4096, the paper's)")
+    p.add_argument("--hidden", type=_layer_sizes, default=None, metavar="N,N",
+                   help="hidden layer sizes of the policy and value MLPs (default 1024,512, the paper's)")
     p.add_argument("--physics-hz", type=float, default=None, help="physics rate (default 300)")
     p.add_argument("--no-early-termination", action="store_true", help="keep episodes going after a fall (rolls, getups)")
     p.add_argument("--asi-components", type=int, default=10, help="k, Gaussian components of the ASI distribution")
@@ -47,16 +55,24 @@ def build_config(args):
         config.samples = args.samples
         config.ray_address, config.asi_address, config.redis_url = args.ray_address, args.asi_address, args.redis_url
         config.serial, config.device = args.serial, args.device
+        config.asi_tls_ca, config.asi_outage_s = args.asi_tls_ca, args.asi_outage_s
+        if args.worker_timeout_s is not None:
+            config.worker_timeout_s = args.worker_timeout_s
         return config
     config = TrainConfig(
         motion=args.motion, out=args.out, workers=args.workers, envs_per_worker=args.envs_per_worker,
         init=args.init, samples=args.samples, seed=args.seed, ray_address=args.ray_address,
         asi_address=args.asi_address, asi_host=args.asi_host, redis_url=args.redis_url, serial=args.serial, device=args.device,
+        asi_tls_ca=args.asi_tls_ca, asi_outage_s=args.asi_outage_s,
         asi_components=args.asi_components, asi_episodes_per_update=args.asi_episodes_per_update,
     )
     if args.batch_size:
         config.ppo.batch_size = args.batch_size
         config.ppo.minibatch_size = min(config.ppo.minibatch_size, args.batch_size)
+    if args.worker_timeout_s is not None:
+        config.worker_timeout_s = args.worker_timeout_s
+    if args.hidden:
+        config.ppo.policy_hidden = config.ppo.value_hidden = args.hidden
     if args.checkpoint_every:
         config.checkpoint_every = args.checkpoint_every
     env = config.env
@@ -66,6 +82,18 @@ def build_config(args):
         env = dataclasses.replace(env, early_termination=False)
     config.env = env
     return config
+
+
+def _layer_sizes(text: str) -> tuple[int, ...]:
+    import argparse
+
+    try:
+        sizes = tuple(int(part) for part in text.split(","))
+    except ValueError:
+        sizes = ()
+    if not sizes or min(sizes) <= 0:
+        raise argparse.ArgumentTypeError(f"expected positive integers separated by commas, got {text!r}")
+    return sizes
 
 
 def run(args) -> int:
