@@ -214,6 +214,7 @@ class Trainer:
         checkpoint = self._prepare_run_dir()
         motion = load_motion(config.motion)
         env, ref_states, ref_phases = self._reference_table(motion)
+        _set_torch_threads(config)
         learner = PPOLearner(OBS_DIM, env.action_space.shape[0], config.ppo, device=config.device)
         asi_version = 0
         if checkpoint is not None:
@@ -345,3 +346,16 @@ def _load_error(path: Path) -> str:
 
 def _fmt(value) -> str:
     return "-" if value is None or (isinstance(value, float) and math.isnan(value)) else f"{value:.3f}"
+
+
+def _set_torch_threads(config: TrainConfig) -> int:
+    import os
+
+    import torch
+
+    threads = config.torch_threads
+    if threads <= 0:
+        local_workers = 0 if config.ray_address else config.workers
+        threads = max(1, (os.cpu_count() or 1) - local_workers)
+    torch.set_num_threads(threads)
+    return threads

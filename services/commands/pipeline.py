@@ -1,0 +1,74 @@
+"""`sfv pipeline VIDEO --out DIR`: video -> pose (Ray tasks) -> reconstruction (a Ray task) -> training.
+
+One Ray job graph on one Ray session: the pose tasks' track feeds the reconstruction task,
+whose motion (written to DIR/motion.npz) the training driver imitates with its rollout
+actors (run directory DIR/train).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+
+def register(sub) -> None:
+    p = sub.add_parser("pipeline", help="reconstruct a motion from a video, then train a controller for it")
+    p.add_argument("video", type=Path, help="input video of one person")
+    p.add_argument("--out", type=Path, required=True, help="output directory: track.npz, motion.npz, train/")
+    p.add_argument("--pose-models", default=None, help="BlazePose model directory (default: `sfv models fetch` cache)")
+    p.add_argument("--iterations", type=int, default=None, help="reconstruction optimiser steps")
+    p.add_argument("--workers", type=int, default=2, help="rollout workers")
+    p.add_argument("--envs-per-worker", type=int, default=16, help="envs per worker")
+    p.add_argument("--init", choices=("asi", "rsi", "fsi"), default="asi", help="initial state distribution")
+    p.add_argument("--samples", type=int, default=200_000, help="training samples")
+    p.add_argument("--batch-size", type=int, default=None, help="samples per PPO iteration (default 4096)")
+    p.add_argument("--ray-address", default=None, help="join a Ray cluster; local Ray when absent")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(handler=run)
+
+
+def run(args) -> int:
+    import dataclasses
+
+    import ray
+
+    from actors.errors import SfvError
+    from actors.motion_io import save_motion
+    from services.pose import estimate_video
+    from services.pose.video import probe_video
+    from services.reconstruction import ReconstructionConfig, reconstruct_on_ray
+    from services.trainer import Trainer
+    from services.train_config import TrainConfig
+
+    probe_video(args.video)  # missing file / not a video / no frames: one-line error before any work
+    out: Path = args.out
+    if (out / "motion.npz").exists():
+        raise SfvError(f"{out}: holds a pipeline run already; choose another --out")
+    out.mkdir(parents=True, exist_ok=True)
+    config = ReconstructionConfig()
+    if args.iterations is not None:
+        config = dataclasses.replace(config, iterations=args.iterations)
+    started_ray = not ray.is_initialized()
+    if started_ray:
+        if args.ray_address:
+            ray.init(address=args.ray_address, log_to_driver=False)
+        else:
+            ray.init(include_dashboard=False, configure_logging=False, log_to_driver=False)
+    try:
+        track = estimate_video(args.video, models_dir=args.pose_models, use_ray=True)
+        track.save(out / "track.npz")
+        motion = reconstruct_on_ray(track, config, args.video.stem)
+        motion_path = save_motion(motion, out / "motion.npz")
+        train = TrainConfig(motion=str(motion_path), out=str(out / "train"), workers=args.workers,
+                            envs_per_worker=args.envs_per_worker, init=args.init, samples=args.samples,
+                            seed=args.seed, ray_address=args.ray_address)
+        if args.batch_size:
+            train.ppo.batch_size = args.batch_size
+            train.ppo.minibatch_size = min(train.ppo.minibatch_size, args.batch_size)
+        record = Trainer(train, progress=not args.quiet).run()
+    finally:
+        if started_ray:
+            ray.shutdown()
+    print(json.dumps({"motion": str(motion_path), "frames": motion.num_frames, "run": train.out,
+                      "samples": record.get("samples"), "normalized_return": record.get("normalized_return")}))
+    return 0
