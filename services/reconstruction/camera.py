@@ -1,0 +1,111 @@
+"""The static pinhole camera the video was taken with, in the motion's Z-up world.
+
+World frame: z up (ground plane z = 0); world x is the image's right direction made
+horizontal, so the camera's x axis lies in the world's x-z plane and the camera looks
+roughly along +y. A monocular clip fixes the camera only up to this choice: any
+rotation or shift of camera and motion together leaves every loss term unchanged, so the
+extrinsics are set once (up direction from the body, height from the feet) and the root
+trajectory carries the rest.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from services.reconstruction.keypoints import fit_index
+
+CAMERA_DOWN = np.array([0.0, 1.0, 0.0])  # image down in camera axes (x right, y down, z forward)
+
+
+@dataclass
+class PinholeCamera:
+    rotation: np.ndarray  # (3, 3) world -> camera: p_cam = rotation @ (p_world - position)
+    position: np.ndarray  # (3,) camera centre in the world, metres
+    focal: float  # pixels
+    principal: np.ndarray  # (2,) pixels
+    image_size: tuple[int, int]  # (width, height)
+
+    @property
+    def intrinsics(self) -> np.ndarray:
+        return np.array([[self.focal, 0.0, self.principal[0]], [0.0, self.focal, self.principal[1]], [0.0, 0.0, 1.0]])
+
+    def to_camera(self, points: np.ndarray) -> np.ndarray:
+        return (points - self.position) @ self.rotation.T
+
+    def project(self, points: np.ndarray) -> np.ndarray:
+        cam = self.to_camera(points)
+        return self.focal * cam[..., :2] / np.maximum(cam[..., 2:], 1e-6) + self.principal
+
+    def project_torch(self, points: torch.Tensor, min_depth: float = 0.05) -> torch.Tensor:
+        rotation = torch.as_tensor(self.rotation, dtype=points.dtype)
+        cam = (points - torch.as_tensor(self.position, dtype=points.dtype)) @ rotation.T
+        depth = cam[..., 2:].clamp_min(min_depth)
+        return self.focal * cam[..., :2] / depth + torch.as_tensor(self.principal, dtype=points.dtype)
+
+    def shifted(self, offset: np.ndarray) -> PinholeCamera:
+        return PinholeCamera(self.rotation, self.position + offset, self.focal, self.principal, self.image_size)
+
+
+def default_focal(image_size: tuple[int, int], focal_length_px: float = 0.0) -> float:
+    return float(focal_length_px) if focal_length_px > 0 else float(max(image_size))
+
+
+def estimate_up(points3d: np.ndarray, valid: np.ndarray, use_body: bool, min_consistency: float) -> np.ndarray:
+    """World up in camera axes from the 3D prediction (camera axes, (T, P, 3)).
+
+    A person who stands most of the clip has a mean unit ankle-to-shoulder axis of length
+    near 1, pointing up; a flip or a roll averages to a short vector, and then the camera
+    is assumed level (image up is world up).
+    """
+    level = -CAMERA_DOWN
+    if not use_body or not valid.any():
+        return level
+    shoulders = points3d[valid][:, [fit_index("RShoulder"), fit_index("LShoulder")]].mean(axis=1)
+    ankles = points3d[valid][:, [fit_index("RAnkle"), fit_index("LAnkle")]].mean(axis=1)
+    axis = shoulders - ankles
+    axis /= np.maximum(np.linalg.norm(axis, axis=-1, keepdims=True), 1e-9)
+    mean = axis.mean(axis=0)
+    if np.linalg.norm(mean) < min_consistency or mean @ level <= 0.0:
+        return level
+    return mean / np.linalg.norm(mean)
+
+
+def camera_rotation_from_up(up_cam: np.ndarray) -> np.ndarray:
+    """World -> camera rotation whose world z is `up_cam` and whose world x is the image's x
+    axis made perpendicular to up (the camera's x axis then has no world-y component)."""
+    up = up_cam / np.linalg.norm(up_cam)
+    x_axis = np.array([1.0, 0.0, 0.0]) - up[0] * up
+    x_axis /= np.linalg.norm(x_axis)
+    y_axis = np.cross(up, x_axis)
+    return np.stack((x_axis, y_axis, up), axis=1)  # columns: world axes in camera coordinates
+
+
+def fit_translations(offsets_cam: np.ndarray, keypoints2d: np.ndarray, confidence: np.ndarray,
+                     focal: float, principal: np.ndarray, min_depth: float = 0.5) -> np.ndarray:
+    """Per frame, the camera-frame translation t that best places a body (offsets_cam (T, P, 3),
+    camera axes, relative to the root) on its 2D keypoints (T, P, 2).
+
+    Linear least squares on the cross-multiplied projection equations
+    f (X + t_x) = (u - c_x)(Z + t_z), f (Y + t_y) = (v - c_y)(Z + t_z), weighted by confidence.
+    A frame with fewer than two confident points takes the median translation of the others.
+    """
+    frames, points = offsets_cam.shape[:2]
+    uv = keypoints2d - principal
+    rows = np.zeros((frames, points, 2, 3))
+    rows[..., 0, 0] = focal
+    rows[..., 1, 1] = focal
+    rows[..., :, 2] = -uv
+    rhs = uv * offsets_cam[..., 2:] - focal * offsets_cam[..., :2]
+    weight = np.sqrt(confidence)[..., None, None]
+    a = (rows * weight).reshape(frames, 2 * points, 3)
+    b = (rhs[..., None] * weight).reshape(frames, 2 * points)
+    solvable = (confidence > 0.1).sum(axis=1) >= 2
+    translations = np.zeros((frames, 3))
+    for t in np.flatnonzero(solvable):
+        translations[t] = np.linalg.lstsq(a[t], b[t], rcond=None)[0]
+    good = solvable & (translations[:, 2] > min_depth)
+    fallback = np.median(translations[good], axis=0) if good.any() else np.array([0.0, 0.0, 3.0])
+    translations[~good] = fallback
+    return translations

@@ -1,0 +1,47 @@
+"""Settings of motion reconstruction (SFV section 6)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class ReconstructionConfig:
+    # --- the reconstruction loss l_rec = w2D l2D + w3D l3D + wsm lsm (SFV's weights)
+    w_2d: float = field(default=10.0, metadata={"help": "weight of the 2D reprojection loss (paper: 10)"})
+    w_3d: float = field(default=100.0, metadata={"help": "weight of the 3D-prediction rotation loss (paper: 100)"})
+    w_smooth: float = field(default=25.0, metadata={"help": "weight of the joint-position smoothness loss (paper: 25)"})
+    image_unit: float = field(default=1e-3, metadata={
+        "help": "unit of the 2D residuals in l2D and delta_t, as a fraction of the image height (per mille): the "
+                "paper's pixel units made independent of the video's resolution"})
+    length_unit_m: float = field(default=0.01, metadata={
+        "help": "metres per length unit of the joint positions in lsm and the ground penalty (centimetres)"})
+    delta_scale: float = field(default=20.0, metadata={
+        "help": "image units per unit of delta_t in w_t = exp(-delta_t): the confidence-weighted mean "
+                "reprojection error of the 3D prediction (per mille of the image height) is divided by this"})
+    w_ground: float = field(default=100.0, metadata={
+        "help": "weight of the squared depth (length units) of foot corners below the ground plane"})
+    # --- optimiser
+    iterations: int = field(default=400, metadata={"help": "Adam steps of the reconstruction"})
+    lr_rotation: float = field(default=0.01, metadata={"help": "Adam step size of the rotation parameters (radians)"})
+    lr_position: float = field(default=0.005, metadata={"help": "Adam step size of the root position (metres)"})
+    final_lr_fraction: float = field(default=0.1, metadata={"help": "step size at the last iteration, as a fraction of the first (exponential decay)"})
+    ik_iterations: int = field(default=200, metadata={"help": "Adam steps of the per-frame fit of the 3D prediction"})
+    ik_lr: float = field(default=0.05, metadata={"help": "Adam step size of the per-frame fit (radians)"})
+    # --- camera
+    focal_length_px: float = field(default=0.0, metadata={
+        "help": "camera focal length in pixels; 0 means max(image width, height), about a 53 degree field of view "
+                "on the long side"})
+    up_from_body: bool = field(default=True, metadata={
+        "help": "estimate the ground's up direction from the mean ankle-to-shoulder axis of the 3D prediction when "
+                "the person is upright most of the clip; otherwise assume a level camera (image up = world up)"})
+    min_upright_consistency: float = field(default=0.8, metadata={
+        "help": "length of the mean unit body axis above which the person counts as upright for up_from_body"})
+    # --- left/right label flips
+    fix_label_flips: bool = field(default=True, metadata={
+        "help": "find frames where the pose estimator swapped the person's left and right (a mirrored reading of "
+                "the body) by temporal coherence and undo the swap before reconstruction"})
+    flip_overrule_cost: float = field(default=0.02, metadata={
+        "help": "price of overruling the estimator's left/right reading in one frame, in the units of a jump "
+                "(fraction of the person's height); small, so that a wrong reading held for many frames is still "
+                "undone when its start and end are visible jumps"})
+    dtype: str = field(default="float64", metadata={"help": "torch dtype of the optimisation (float32 or float64)"})

@@ -1,0 +1,106 @@
+"""A pose track made from a known humanoid motion seen by a known camera, with the noise of a
+per-frame estimator added: ground truth for testing and benchmarking the reconstruction.
+
+The humanoid sways, bends its knees and swings its arms (every joint inside its limits,
+feet on or above the ground) while walking slowly past the camera. Its fit points are
+projected through the camera (2D keypoints, plus pixel noise) and expressed hip-centred in
+the camera's axes (the "3D prediction", plus per-frame noise in metres: the jitter the
+reconstruction should remove).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from actors import quaternion as qn
+from actors.skeleton import JOINT_NAMES, REVOLUTE_JOINTS, SPHERICAL_JOINTS
+from services.pose.track import KEYPOINT_NAMES, PoseTrack
+from services.reconstruction.body import REVOLUTE_LIMITS, SPHERICAL_LIMITS, PoseParams, body_points
+from services.reconstruction.camera import PinholeCamera, camera_rotation_from_up
+from services.reconstruction.keypoints import FIT_POINTS, NUM_JOINT_KEYPOINTS, fit_index
+
+EAR_HALF_WIDTH = 0.07  # metres either side of the head centre
+
+
+@dataclass
+class SyntheticClip:
+    track: PoseTrack
+    camera: PinholeCamera
+    joints3d: np.ndarray  # (T, 12, 3) true world positions of the 12 joint keypoints
+    root_pos: np.ndarray  # (T, 3)
+    root_quat: np.ndarray  # (T, 4)
+    joint_quats: np.ndarray  # (T, 12, 4)
+
+
+def _joint_motion(frames: int, fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Smooth spherical rotation vectors (T, 8, 3) and hinge angles (T, 4), inside the limits."""
+    t = np.arange(frames)[:, None, None] / fps
+    phase = np.arange(len(SPHERICAL_JOINTS))[None, :, None] * 0.7 + np.arange(3)[None, None, :] * 1.3
+    centre = SPHERICAL_LIMITS.mean(axis=-1)
+    half = 0.5 * (SPHERICAL_LIMITS[..., 1] - SPHERICAL_LIMITS[..., 0])
+    # Gentle motion about the middle of each axis' range, kept well inside it.
+    spherical = 0.15 * centre + 0.25 * half * np.sin(2.0 * np.pi * 0.6 * t + phase)
+    hinge_t = np.arange(frames)[:, None] / fps
+    hinge_mid = REVOLUTE_LIMITS.mean(axis=-1)
+    revolute = hinge_mid + 0.35 * np.sin(2.0 * np.pi * 0.8 * hinge_t + np.arange(len(REVOLUTE_JOINTS)))
+    revolute = np.where(np.isin([JOINT_NAMES[j] for j in REVOLUTE_JOINTS], ("right_knee", "left_knee")),
+                        np.clip(revolute * 0.5, -1.2, -0.1), revolute)
+    return spherical, np.clip(revolute, REVOLUTE_LIMITS[:, 0], REVOLUTE_LIMITS[:, 1])
+
+
+def _landmarks(fit: np.ndarray, neck_left: np.ndarray) -> np.ndarray:
+    """BlazePose's 33 landmarks (T, 33, 3) from the fit points (T, P, 3): each landmark the
+    fit uses sits where the fit expects it; the others copy the nearest body part."""
+    landmarks = np.empty(fit.shape[:1] + (len(KEYPOINT_NAMES), 3))
+    head = fit[:, fit_index("Head")]
+    source = {point.blazepose[0]: fit[:, i] for i, point in enumerate(FIT_POINTS) if len(point.blazepose) == 1}
+    source["left_ear"] = head + EAR_HALF_WIDTH * neck_left
+    source["right_ear"] = head - EAR_HALF_WIDTH * neck_left
+    for k, name in enumerate(KEYPOINT_NAMES):
+        if name in source:
+            landmarks[:, k] = source[name]
+        elif any(part in name for part in ("pinky", "index", "thumb")):
+            landmarks[:, k] = fit[:, fit_index("LWrist" if name.startswith("left") else "RWrist")]
+        else:  # nose, eyes, mouth
+            landmarks[:, k] = head
+    return landmarks
+
+
+def make_clip(frames: int = 40, fps: float = 30.0, image_size: tuple[int, int] = (640, 480), focal: float = 600.0,
+              pixel_noise: float = 2.0, depth_noise_m: float = 0.04, seed: int = 0) -> SyntheticClip:
+    rng = np.random.default_rng(seed)
+    spherical, revolute = _joint_motion(frames, fps)
+    t = np.arange(frames) / fps
+    yaw = 0.3 * np.sin(2.0 * np.pi * 0.3 * t) - np.pi / 2  # facing the camera (-y), turning a little
+    root_quat = qn.quat_from_axis_angle(np.stack((np.zeros(frames), np.zeros(frames), yaw), axis=-1))
+    root_pos = np.stack((0.3 * t - 0.15 * t[-1], np.zeros(frames), np.full(frames, 1.0)), axis=-1)
+    params = PoseParams.create(root_pos, root_quat, spherical, revolute)
+    with torch.no_grad():
+        fit, corners = body_points(params.root_pos, params.root_quat(), params.joint_quats())
+        joint_quats = params.joint_quats().numpy()
+    fit, corners = fit.numpy(), corners.numpy()
+    lift = -corners[..., 2].min()  # lowest foot point on the ground
+    fit[..., 2] += lift
+    root_pos = root_pos + np.array([0.0, 0.0, lift])
+
+    # A camera 4 m in front (along -y), 1.2 m up, looking slightly down.
+    pitch = np.deg2rad(10.0)
+    up_cam = np.array([0.0, -np.cos(pitch), -np.sin(pitch)])
+    rotation = camera_rotation_from_up(up_cam)
+    centre = np.array([0.0, -4.0, 1.2])
+    camera = PinholeCamera(rotation, centre, focal, np.array([(image_size[0] - 1) / 2, (image_size[1] - 1) / 2]),
+                           tuple(image_size))
+    neck_left = qn.quat_rotate(qn.quat_mul(root_quat, joint_quats[:, 0]), np.array([0.0, 1.0, 0.0]))  # chest's +y
+    world_landmarks = _landmarks(fit, neck_left)
+    keypoints2d = camera.project(world_landmarks) + rng.normal(0.0, pixel_noise, world_landmarks.shape[:-1] + (2,))
+    hips = world_landmarks[:, [KEYPOINT_NAMES.index("left_hip"), KEYPOINT_NAMES.index("right_hip")]].mean(axis=1)
+    world3d = (world_landmarks - hips[:, None]) @ rotation.T + rng.normal(0.0, depth_noise_m, world_landmarks.shape)
+    track = PoseTrack(
+        fps=fps, image_size=tuple(image_size),
+        keypoints2d=keypoints2d.astype(np.float32), confidence=np.full((frames, len(KEYPOINT_NAMES)), 0.95, np.float32),
+        world3d=world3d.astype(np.float32), valid=np.ones(frames, bool), presence=np.ones(frames, np.float32),
+        rotation_used=np.zeros(frames, np.int16), filled_frames=0,
+    )
+    return SyntheticClip(track, camera, fit[:, :NUM_JOINT_KEYPOINTS], root_pos, root_quat, joint_quats)
