@@ -44,7 +44,7 @@ def run_reconstruct(args: argparse.Namespace) -> int:
     from services.pose import PoseTrack, estimate_video
     from services.pose.video import probe_video
     from services.reconstruction import ReconstructionConfig, reconstruct_on_ray, reconstruct_track
-    from services.reconstruction.distributed import start_local_ray
+    from services.ray_session import start_local_ray
 
     _check_args(args)
     started = time.perf_counter()
