@@ -17,17 +17,16 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from actors import quaternion as qn
+from actors.atomic_file import atomic_output
 from actors.errors import MotionFormatError
-from actors.skeleton import revolute_angle
 from actors.motion import ReferenceMotion
-from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, JOINT_NAMES, NUM_JOINTS
+from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, JOINT_NAMES, NUM_JOINTS, revolute_angle
 
 DEEPMIMIC_COLUMNS = 1 + 3 + 4 + int(4 * JOINT_IS_SPHERICAL.sum() + (~JOINT_IS_SPHERICAL).sum())  # 44
 NPZ_FORMAT = "sfv-motion-1"
@@ -218,16 +217,8 @@ def save_motion(motion: ReferenceMotion, path: str | os.PathLike) -> Path:
         frame_times=motion.frame_times, root_pos=motion.root_pos, root_rot=motion.root_rot,
         joint_rot=motion.joint_rot, joint_names=np.array(JOINT_NAMES),
     )
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez_compressed(f, **arrays)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_output(path) as tmp, open(tmp, "wb") as f:
+        np.savez_compressed(f, **arrays)
     return path
 
 

@@ -8,12 +8,11 @@ exponential moving average over it bold.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from actors.atomic_file import atomic_output
 from services.run_dir import CONFIG_FILE, read_metrics
 
 INIT_COLOURS = {"asi": "tab:blue", "rsi": "tab:orange", "fsi": "tab:green"}
@@ -58,6 +57,7 @@ def plot_learning_curves(run_dirs: list[Path], out: Path, smoothing: float = 0.8
     fig, ax = plt.subplots(figsize=(7, 4.2), dpi=120)
     per_init: dict[str, int] = {}
     motions = set()
+    highest = 0.0
     for run_dir in map(Path, run_dirs):
         samples, returns = learning_curve(run_dir)
         info = run_info(run_dir)
@@ -69,6 +69,7 @@ def plot_learning_curves(run_dirs: list[Path], out: Path, smoothing: float = 0.8
         if len(samples) == 0:
             ax.plot([], [], color=colour, linestyle=style, label=f"{label} (no episodes yet)")
             continue
+        highest = max(highest, float(max(returns)))
         if len(samples) > 1 and smoothing > 0:
             ax.plot(samples, returns, color=colour, alpha=0.25, linewidth=1)
             ax.plot(samples, smooth(returns, smoothing), color=colour, linestyle=style, linewidth=2, label=label)
@@ -77,22 +78,17 @@ def plot_learning_curves(run_dirs: list[Path], out: Path, smoothing: float = 0.8
     ax.set_xlabel("samples")
     ax.xaxis.set_major_formatter(EngFormatter())
     ax.set_ylabel("normalised return")
-    ax.set_ylim(0, 1)
+    # The scale is 0..1; early in training a full-height axis hides the curves, so zoom in.
+    ax.set_ylim(0, 1.0 if highest > 0.5 else max(0.02, 1.25 * highest))
     ax.grid(alpha=0.3)
     if run_dirs:
         ax.legend(loc="upper left", fontsize=8, title="init: run", title_fontsize=8)
     ax.set_title(f"Learning curves: {', '.join(sorted(motions)) or 'no runs'}")
     fig.tight_layout()
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".png", dir=out.parent)
-    os.close(fd)
     try:
-        fig.savefig(tmp)
-        os.replace(tmp, out)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        with atomic_output(out, suffix=".png") as tmp:
+            fig.savefig(tmp)
     finally:
         plt.close(fig)
     return out

@@ -2,9 +2,9 @@
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
+
+from actors.atomic_file import atomic_write_text
 
 
 def _number(value: float) -> str:
@@ -34,12 +34,4 @@ def markdown_table(report: dict) -> str:
 
 def write_json_atomic(path: Path, report: dict) -> None:
     """Temp file in the same directory, then os.replace: never a half-written report."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(report, f, indent=2)
-            f.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write_text(path, json.dumps(report, indent=2) + "\n")

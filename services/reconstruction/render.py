@@ -10,13 +10,13 @@ backend when `mujoco` is first imported, before a command can choose one.
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import cv2
 import mujoco
 import numpy as np
 
+from actors.atomic_file import atomic_output
 from actors.errors import SfvError
 from actors.humanoid import Humanoid
 from actors.motion import ReferenceMotion
@@ -147,34 +147,26 @@ def render_motion_video(motion: ReferenceMotion, video: Path, out: Path, height:
     data = mujoco.MjData(humanoid.model)
     view = PinholeView(humanoid.model, width, height)
     projected_model = project(extras["keypoints3d"], rotation, position, intrinsics) if "keypoints3d" in extras else None
-    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".mp4", dir=out.parent)
-    os.close(fd)
     written = 0
     try:
-        writer = imageio.get_writer(tmp, format="FFMPEG", fps=motion.fps, codec="libx264", pixelformat="yuv420p",
-                                    macro_block_size=2, ffmpeg_log_level="error")
-        with writer:
-            for index, frame in read_frames(video, 0, frames):
-                pose = motion.sample(motion.frame_times[index])
-                layout.pose_to_qpos_qvel(pose, data.qpos, data.qvel)
-                mujoco.mj_forward(humanoid.model, data)
-                rendered = view.render(data, rotation, position, intrinsics, image_size)
-                left = cv2.resize(frame, (width, height), interpolation=cv2.INTER_AREA)
-                draw_keypoints(left, extras["keypoints2d"][index], extras["confidence"][index], scale)
-                if projected_model is not None:  # the reconstruction seen from the camera, for judging the fit
-                    draw_keypoints(left, projected_model[index], np.ones(len(JOINT_KEYPOINTS)), scale,
-                                   colour_override=MODEL_COLOUR, radius=2, thickness=1)
-                writer.append_data(np.concatenate((left, rendered), axis=1))
-                written += 1
-        if written == 0:
-            raise SfvError(f"{video}: no frame could be decoded")
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 -> the usual file mode
-        os.replace(tmp, out)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        with atomic_output(out, suffix=".mp4") as tmp:
+            writer = imageio.get_writer(tmp, format="FFMPEG", fps=motion.fps, codec="libx264", pixelformat="yuv420p",
+                                        macro_block_size=2, ffmpeg_log_level="error")
+            with writer:
+                for index, frame in read_frames(video, 0, frames):
+                    pose = motion.sample(motion.frame_times[index])
+                    layout.pose_to_qpos_qvel(pose, data.qpos, data.qvel)
+                    mujoco.mj_forward(humanoid.model, data)
+                    rendered = view.render(data, rotation, position, intrinsics, image_size)
+                    left = cv2.resize(frame, (width, height), interpolation=cv2.INTER_AREA)
+                    draw_keypoints(left, extras["keypoints2d"][index], extras["confidence"][index], scale)
+                    if projected_model is not None:  # the reconstruction seen from the camera, for judging the fit
+                        draw_keypoints(left, projected_model[index], np.ones(len(JOINT_KEYPOINTS)), scale,
+                                       colour_override=MODEL_COLOUR, radius=2, thickness=1)
+                    writer.append_data(np.concatenate((left, rendered), axis=1))
+                    written += 1
+            if written == 0:
+                raise SfvError(f"{video}: no frame could be decoded")
     finally:
         view.close()
     return written

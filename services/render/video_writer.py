@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from actors.atomic_file import usual_file_mode
 from actors.errors import SfvError
 
 
@@ -18,6 +19,7 @@ def check_video_path(path: str | os.PathLike) -> Path:
     if not path.resolve().parent.is_dir():
         raise SfvError(f"{path}: folder {path.resolve().parent} does not exist")
     return path
+
 
 
 class AtomicVideoWriter:
@@ -49,6 +51,7 @@ class AtomicVideoWriter:
             self._tmp.unlink(missing_ok=True)
             raise
         if exc_type is None and self.frames > 0:
+            os.chmod(self._tmp, usual_file_mode())  # mkstemp made it 0600
             os.replace(self._tmp, self.path)
         else:
             self._tmp.unlink(missing_ok=True)
