@@ -20,3 +20,16 @@ def shared_dir() -> Path:
     if not SHARED.is_dir():
         pytest.skip("../shared absent: this test needs the shared data folder")
     return SHARED
+
+
+@pytest.fixture(scope="session")
+def models_dir() -> Path:
+    """BlazePose models: ../shared's copy for development, else the `sfv models fetch` cache."""
+    from services.pose.models import DETECTOR_FILE, LANDMARK_FILE, cached_models_ok, default_models_dir
+
+    shared_models = SHARED / "models" / "blazepose"
+    if (shared_models / DETECTOR_FILE).is_file() and (shared_models / LANDMARK_FILE).is_file():
+        return shared_models
+    if cached_models_ok(default_models_dir()):
+        return default_models_dir()
+    pytest.skip("BlazePose models absent (../shared absent and `sfv models fetch` not run)")

@@ -9,13 +9,14 @@ import cv2
 import numpy as np
 import pytest
 
+from services.pose.models import DETECTOR_FILE, LANDMARK_FILE
+
 from services.cli import main
 from services.errors import SfvError
 from services.pose import PoseConfig, PoseTrack, estimate_video, resolve_model_files
 from services.pose.detector import PoseDetector
 from services.pose.estimator import estimate_chunk, rotate_frame
 from services.pose.landmarks import LandmarkModel
-from services.pose.models import DETECTOR_FILE, LANDMARK_FILE, cached_models_ok, default_models_dir
 from services.pose.openpose import load_openpose_frame, matched_joint_errors
 from services.pose.roi import roi_from_alignment_points
 from services.pose.video import read_frames
@@ -26,16 +27,6 @@ CLIP = SHARED / "data" / "video" / "pose2sim_balancing"
 # OpenPose BODY_25B on the same frames; the two models place hips differently).
 MEAN_ERROR_BOUND_PX = 25.0
 FRAME_ERROR_BOUND_PX = 30.0
-
-
-@pytest.fixture(scope="module")
-def models_dir():
-    shared_models = SHARED / "models" / "blazepose"
-    if (shared_models / DETECTOR_FILE).is_file() and (shared_models / LANDMARK_FILE).is_file():
-        return shared_models
-    if cached_models_ok(default_models_dir()):
-        return default_models_dir()
-    pytest.skip("BlazePose models absent (../shared absent and `sfv models fetch` not run)")
 
 
 @pytest.fixture(scope="module")

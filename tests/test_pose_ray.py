@@ -6,21 +6,10 @@ import numpy as np
 import pytest
 
 from services.pose import estimate_video
-from services.pose.models import DETECTOR_FILE, LANDMARK_FILE, cached_models_ok, default_models_dir
 from services.pose.video import read_frames
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 CAM01 = SHARED / "data" / "video" / "pose2sim_balancing" / "cam01.mp4"
-
-
-@pytest.fixture(scope="module")
-def models_dir():
-    shared_models = SHARED / "models" / "blazepose"
-    if (shared_models / DETECTOR_FILE).is_file() and (shared_models / LANDMARK_FILE).is_file():
-        return shared_models
-    if cached_models_ok(default_models_dir()):
-        return default_models_dir()
-    pytest.skip("BlazePose models absent (../shared absent and `sfv models fetch` not run)")
 
 
 @pytest.fixture

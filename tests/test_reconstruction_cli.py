@@ -13,7 +13,6 @@ import pytest
 from actors.motion_io import load_motion, save_motion
 from services.cli import main
 from services.errors import SfvError
-from services.pose.models import DETECTOR_FILE, LANDMARK_FILE, cached_models_ok, default_models_dir
 from services.pose.video import read_frames
 from services.reconstruction.render import gl_context
 from services.reconstruction.synthetic import make_clip
@@ -22,16 +21,6 @@ SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 CLIP = SHARED / "data" / "video" / "pose2sim_balancing" / "cam01.mp4"
 FRAMES = 30
 HALF_SIZE = (540, 960)
-
-
-@pytest.fixture(scope="module")
-def models_dir():
-    shared_models = SHARED / "models" / "blazepose"
-    if (shared_models / DETECTOR_FILE).is_file() and (shared_models / LANDMARK_FILE).is_file():
-        return shared_models
-    if cached_models_ok(default_models_dir()):
-        return default_models_dir()
-    pytest.skip("BlazePose models absent (../shared absent and `sfv models fetch` not run)")
 
 
 def write_clip(path: Path, frames_rgb, fps: float = 60.0) -> Path:
