@@ -111,8 +111,18 @@ class Trainer:
             return
         if self.config.ray_address:
             ray.init(address=self.config.ray_address, log_to_driver=True)
-        else:
-            ray.init(num_cpus=max(self.config.workers, 1), include_dashboard=False, log_to_driver=True, configure_logging=False)
+            return
+        # A local Ray's raylet can miss Ray's fixed 30 s registration deadline on a busy 2-core
+        # machine (seen once in ~10 CI runs): try a second time before giving up.
+        for attempt in (1, 2):
+            try:
+                ray.init(num_cpus=max(self.config.workers, 1), include_dashboard=False, log_to_driver=True, configure_logging=False)
+                return
+            except Exception as exc:  # Ray raises a bare Exception for this
+                if attempt == 2 or "timed out during startup" not in str(exc):
+                    raise
+                log.warning("local Ray did not start in time (%s); trying once more", exc)
+                ray.shutdown()
 
     # ------------------------------------------------------------- collection
     def _collect(self, workers, weights, version: int, steps: int) -> list[dict]:
