@@ -9,6 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
+from tests.video_helpers import write_clip
+
 from services.pose.models import DETECTOR_FILE, LANDMARK_FILE
 
 from services.cli import main
@@ -40,16 +42,6 @@ def cam01():
 def person_frames(cam01):
     """First 12 frames of the real clip at half size (540x960), RGB."""
     return [cv2.resize(frame, (540, 960), interpolation=cv2.INTER_AREA) for _, frame in read_frames(cam01, 0, 12)]
-
-
-def write_clip(path: Path, frames_rgb, fps: float = 60.0) -> Path:
-    height, width = frames_rgb[0].shape[:2]
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), fps, (width, height))
-    assert writer.isOpened()
-    for frame in frames_rgb:
-        writer.write(cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
-    writer.release()
-    return path
 
 
 @pytest.mark.shared

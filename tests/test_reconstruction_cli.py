@@ -10,6 +10,8 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
+from tests.video_helpers import write_clip
+
 from actors.motion_io import load_motion, save_motion
 from services.cli import main
 from services.errors import SfvError
@@ -21,16 +23,6 @@ SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 CLIP = SHARED / "data" / "video" / "pose2sim_balancing" / "cam01.mp4"
 FRAMES = 30
 HALF_SIZE = (540, 960)
-
-
-def write_clip(path: Path, frames_rgb, fps: float = 60.0) -> Path:
-    height, width = frames_rgb[0].shape[:2]
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), fps, (width, height))
-    assert writer.isOpened()
-    for frame in frames_rgb:
-        writer.write(cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
-    writer.release()
-    return path
 
 
 @pytest.fixture(scope="module")
