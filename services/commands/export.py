@@ -17,6 +17,8 @@ import argparse
 import json
 from pathlib import Path
 
+from services.commands._rollout_args import add_rollout_args
+
 
 def register(sub) -> None:
     p = sub.add_parser("export", help="export a run's policy (ONNX) or its rollouts (.npz motion, BVH)",
@@ -26,10 +28,7 @@ def register(sub) -> None:
     p.add_argument("--motion", default=None, help="write the rollout as an sfv motion .npz here")
     p.add_argument("--bvh", default=None, help="write the rollout as BVH here")
     p.add_argument("--policy-onnx", default=None, help="roll out this exported ONNX policy instead of the checkpoint (no torch)")
-    p.add_argument("--episodes", type=int, default=1, help="episodes to record")
-    p.add_argument("--seconds", type=float, default=None, help="cap on each episode's length in seconds")
-    p.add_argument("--init", choices=("fsi", "rsi"), default="fsi", help="start at the clip's first frame or a random one")
-    p.add_argument("--seed", type=int, default=0, help="episode k uses seed + k (as sfv eval)")
+    add_rollout_args(p)
     p.add_argument("--units", choices=("cm", "m"), default="cm", help="BVH length unit")
     p.set_defaults(handler=run)
 

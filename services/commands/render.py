@@ -11,6 +11,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from services.commands._rollout_args import add_rollout_args
+
 
 def register(sub) -> None:
     p = sub.add_parser("render", help="render a trained policy beside its reference motion to an MP4",
@@ -19,10 +21,7 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, help="MP4 file to write (atomically)")
     p.add_argument("--onnx", default=None, help="film an exported ONNX policy instead of the checkpoint (no torch)")
     p.add_argument("--motion", default=None, help="reference motion (default: the run's); required for --onnx without a run")
-    p.add_argument("--episodes", type=int, default=1, help="episodes filmed one after another")
-    p.add_argument("--seconds", type=float, default=None, help="cap on each episode's length in seconds")
-    p.add_argument("--init", choices=("fsi", "rsi"), default="fsi", help="start at the clip's first frame or a random one")
-    p.add_argument("--seed", type=int, default=0, help="episode k uses seed + k (as sfv eval)")
+    add_rollout_args(p)
     p.add_argument("--push", type=int, default=0, metavar="N", help="random horizontal pushes on the root per episode")
     p.add_argument("--push-impulse", type=float, default=40.0, help="impulse of one push (N s)")
     p.add_argument("--push-duration", type=float, default=0.1, help="seconds a push acts (whole control steps)")
