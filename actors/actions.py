@@ -41,18 +41,20 @@ class ActionMapper:
 
     def targets(self, action: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """PD targets (28,) for one action; writes into `out` (e.g. MjData.ctrl) if given."""
-        t = self.targets_batch(np.asarray(action).reshape(1, -1), self._targets.reshape(1, -1))[0]
-        if out is not None:
-            out[:] = t
-        return t
+        targets = self._targets if out is None else out
+        self.targets_batch(np.asarray(action).reshape(1, -1), targets.reshape(1, -1))
+        return targets
 
     def targets_batch(self, actions: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """PD targets (B, 28) for a batch of actions (B, action_dim), into `out`."""
+        """PD targets (B, 28) for a batch of actions (B, action_dim), into `out`.
+
+        Plain ufunc calls with `out=` throughout: this runs every control step of every env."""
         b = actions.shape[0]
         if self._clipped.shape[0] != b:
             self._clipped = np.zeros((b, self.action_dim))
             self._angle = np.zeros((b, NUM_SPHERICAL))
-        a = np.clip(actions, -1.0, 1.0, out=self._clipped)
+        a = np.minimum(actions, 1.0, out=self._clipped)
+        np.maximum(a, -1.0, out=a)
         sph = out[:, :SPH_CTRL].reshape(b, NUM_SPHERICAL, 3)
         if self.parameterisation == "axis_angle":
             block = a[:, : self.sph_width].reshape(b, NUM_SPHERICAL, 4)
@@ -66,7 +68,8 @@ class ActionMapper:
         else:
             np.multiply(a[:, :SPH_CTRL], self.scale[:SPH_CTRL], out=out[:, :SPH_CTRL])
         np.multiply(a[:, self.sph_width:], self.scale[SPH_CTRL:], out=out[:, SPH_CTRL:])
-        np.clip(out, self.lower, self.upper, out=out)
+        np.minimum(out, self.upper, out=out)
+        np.maximum(out, self.lower, out=out)
         return out
 
     def action_for_targets(self, targets: np.ndarray) -> np.ndarray:

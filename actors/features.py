@@ -8,8 +8,6 @@ MjData) goes through the same code, so perfect tracking gives exactly equal feat
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import mujoco
 import numpy as np
 
@@ -23,6 +21,10 @@ _POS = slice(1, 1 + 3 * NUM_LINKS)
 _ROT = slice(_POS.stop, _POS.stop + 4 * NUM_LINKS)
 _LIN = slice(_ROT.stop, _ROT.stop + 3 * NUM_LINKS)
 _ANG = slice(_LIN.stop, _LIN.stop + 3 * NUM_LINKS)
+HINGE_START = 4 * NUM_REWARD_QUATS  # RewardFeatures.values columns: quats, hinges, ang vel, end effectors, com
+_ANG_VEL_START = HINGE_START + 4
+# (w, x, y, z) @ P = (z, y, -x, -w): with c I + s P, the product conj(q_h) * q for q_h = (c, 0, 0, s).
+_HALF_YAW_PERMUTATION = np.array([[0, 0, 0, -1], [0, 0, -1, 0], [0, 1, 0, 0], [1, 0, 0, 0]], dtype=float)
 
 
 def update_kinematics(model: mujoco.MjModel, data: mujoco.MjData) -> None:
@@ -36,33 +38,58 @@ def update_kinematics(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     mujoco.mj_comVel(model, data)
 
 
-@dataclass
 class RewardFeatures:
-    """What the reward compares, with a leading batch (or table-row) dimension: 9
-    quaternions, 4 hinge angles, the nv-3 angular velocity coordinates of qvel (root and ball
-    joints in local frames, hinge rates), the 4 end effectors relative to the root in the
-    heading frame, and the world centre of mass."""
+    """What the reward compares, with a leading batch (or table-row) dimension, stored as one
+    flat (B, D) array so the reward's differences and sums are a few whole-row operations:
+    9 quaternions (root in the world, 8 ball joints local), 4 hinge angles, the nv-3 angular
+    velocity coordinates of qvel (root and ball joints in local frames, hinge rates), the 4
+    end effectors relative to the root in the heading frame, and the world centre of mass."""
 
-    quats: np.ndarray  # (B, 9, 4)
-    hinges: np.ndarray  # (B, 4)
-    ang_vel: np.ndarray  # (B, nv - 3)
-    end_effectors: np.ndarray  # (B, 4, 3)
-    com: np.ndarray  # (B, 3)
+    def __init__(self, values: np.ndarray):
+        self.values = values  # (B, D)
+        n_ang = values.shape[1] - _ANG_VEL_START - 4 * 3 - 3
+        self.ang_vel_end = _ANG_VEL_START + n_ang
+        # Segments of values[:, HINGE_START:] summed by the reward: hinges, ang vel, end effectors, com.
+        self.segments = np.array([0, 4, 4 + n_ang, 4 + n_ang + 12])
 
     @classmethod
     def zeros(cls, nv: int, rows: int = 1) -> "RewardFeatures":
-        return cls(np.zeros((rows, NUM_REWARD_QUATS, 4)), np.zeros((rows, 4)), np.zeros((rows, nv - 3)), np.zeros((rows, 4, 3)), np.zeros((rows, 3)))
+        return cls(np.zeros((rows, _ANG_VEL_START + (nv - 3) + 4 * 3 + 3)))
+
+    @property
+    def quats(self) -> np.ndarray:  # (B, 9, 4)
+        return self.values[:, :HINGE_START].reshape(-1, NUM_REWARD_QUATS, 4)
+
+    @property
+    def hinges(self) -> np.ndarray:  # (B, 4)
+        return self.values[:, HINGE_START:_ANG_VEL_START]
+
+    @property
+    def ang_vel(self) -> np.ndarray:  # (B, nv - 3)
+        return self.values[:, _ANG_VEL_START:self.ang_vel_end]
+
+    @property
+    def end_effectors(self) -> np.ndarray:  # (B, 4, 3)
+        return self.values[:, self.ang_vel_end:self.ang_vel_end + 12].reshape(-1, 4, 3)
+
+    @property
+    def com(self) -> np.ndarray:  # (B, 3)
+        return self.values[:, -3:]
 
     def take(self, rows: np.ndarray) -> "RewardFeatures":
-        """Rows gathered by index (copies), e.g. each env's current reference row."""
-        return RewardFeatures(self.quats[rows], self.hinges[rows], self.ang_vel[rows], self.end_effectors[rows], self.com[rows])
+        """Rows gathered by index (a copy), e.g. each env's current reference row."""
+        return RewardFeatures(self.values[rows])
 
     def slice(self, rows: slice) -> "RewardFeatures":
-        return RewardFeatures(self.quats[rows], self.hinges[rows], self.ang_vel[rows], self.end_effectors[rows], self.com[rows])
+        return RewardFeatures(self.values[rows])
 
 
 class FeatureExtractor:
-    """Observation (197-D) and reward features for `batch` envs, into fixed buffers."""
+    """Observation (197-D) and reward features for `batch` envs, into fixed buffers.
+
+    Per control step: `capture(i, data)` for each env, then `heading()` once, then
+    `reward_features(yaw)` and `observations(phases, out, yaw)` over all rows.
+    """
 
     def __init__(self, humanoid: Humanoid, batch: int = 1):
         self.model = humanoid.model
@@ -72,7 +99,9 @@ class FeatureExtractor:
         # MuJoCo bodies 1..15 are the links (see Humanoid); positions in that slice:
         self._ee = humanoid.body_ids[END_EFFECTOR_LINKS] - 1
         assert self.root_body == 1
-        self.quat_qpos = np.concatenate((np.arange(3, 7)[None], self.layout.ball_qpos))  # (9, 4)
+        # qpos columns of the 9 reward quaternions then the 4 hinge angles, gathered in one go.
+        quat_qpos = np.concatenate((np.arange(3, 7)[None], self.layout.ball_qpos))  # (9, 4)
+        self._rot_qpos = np.concatenate((quat_qpos.ravel(), self.layout.hinge_qpos))
         n = NUM_LINKS
         nq, nv = self.model.nq, self.model.nv
         # Captured MjData fields, one row per env.
@@ -80,84 +109,96 @@ class FeatureExtractor:
         self.quat = np.zeros((b, n, 4))
         self.cvel = np.zeros((b, n, 6))
         self.com = np.zeros((b, 3))
-        self.forward = np.zeros((b, 2))  # world x, y of the root's +x axis
+        self.root_xmat = np.zeros((b, 9))
         self.qpos = np.zeros((b, nq))
         self.qvel = np.zeros((b, nv))
+        self._copies: list[tuple] = [((), None)] * b  # per row: (MjData it was bound to, ((dst, src), ...))
         # Scratch.
+        self._theta = np.zeros(b)
+        self._cos_sin = np.zeros((b, 2))
         self._yaw = np.zeros((b, 3, 3))
         self._yaw[:, 2, 2] = 1.0
+        self._half = np.zeros((b, 2, 1, 1))  # cos, sin of half each yaw
         self._left = np.zeros((b, 4, 4))
         self._rel = np.zeros((b, n, 3))
         self._lin = np.zeros((b, n, 3))
         self._tmp = np.zeros((b, n, 3))
-        self._c = np.zeros(b)
-        self._s = np.zeros(b)
+        self._ee_rel = np.zeros((b, 4, 3))
+        self._sign = np.zeros((b, n, 1))
         self.sim = RewardFeatures.zeros(nv, b)
+        self._out_views: tuple = (None,)
 
     def capture(self, i: int, data: mujoco.MjData) -> None:
         """Copy env i's state (after `update_kinematics`) into row i."""
-        self.pos[i] = data.xpos[1:]
-        self.quat[i] = data.xquat[1:]
-        self.cvel[i] = data.cvel[1:]
-        self.com[i] = data.subtree_com[1]
-        xmat = data.xmat[1]
-        self.forward[i, 0], self.forward[i, 1] = xmat[0], xmat[3]
-        self.qpos[i] = data.qpos
-        self.qvel[i] = data.qvel
+        bound, copies = self._copies[i]
+        if bound is not data:
+            # MjData's arrays are fixed views of its buffers: build the (row, field) pairs once.
+            copies = ((self.pos[i], data.xpos[1:]), (self.quat[i], data.xquat[1:]), (self.cvel[i], data.cvel[1:]),
+                      (self.com[i], data.subtree_com[1]), (self.root_xmat[i], data.xmat[1]),
+                      (self.qpos[i], data.qpos), (self.qvel[i], data.qvel))
+            self._copies[i] = (data, copies)
+        for dst, src in copies:
+            np.copyto(dst, src)
 
-    def _heading(self, rows: slice) -> np.ndarray:
-        """(B,3,3) M with v_heading = v_world @ M (the inverse of each root's yaw)."""
-        f = self.forward[rows]
-        c, s = self._c[rows], self._s[rows]
-        np.hypot(f[:, 0], f[:, 1], out=c)
-        np.maximum(c, 1e-12, out=c)
-        np.divide(f[:, 1], c, out=s)
-        np.divide(f[:, 0], c, out=c)
-        yaw = self._yaw[rows]
-        yaw[:, 0, 0] = c
-        yaw[:, 1, 1] = c
-        yaw[:, 0, 1] = -s
-        yaw[:, 1, 0] = s
+    def heading(self) -> np.ndarray:
+        """(B,3,3) M with v_heading = v_world @ M (the inverse of each root's yaw); also keeps
+        the cosine and sine of each half yaw for `observations`."""
+        theta = self._theta
+        np.arctan2(self.root_xmat[:, 3], self.root_xmat[:, 0], out=theta)  # yaw of the root's +x axis
+        cs = self._cos_sin
+        np.cos(theta, out=cs[:, 0])
+        np.sin(theta, out=cs[:, 1])
+        yaw = self._yaw  # [[c, -s], [s, c]] in the top-left corner
+        yaw[:, :2, 0] = cs
+        np.negative(cs[:, 1], out=yaw[:, 0, 1])
+        yaw[:, 1, 1] = cs[:, 0]
+        theta *= 0.5
+        np.cos(theta, out=self._half[:, 0, 0, 0])
+        np.sin(theta, out=self._half[:, 1, 0, 0])
         return yaw
 
     # ----------------------------------------------------------------- observation
-    def observations(self, phases: np.ndarray, out: np.ndarray, rows: slice = slice(None)) -> np.ndarray:
-        """State features of SFV §9 / DeepMimic in each heading frame, plus the phase."""
-        pos, quat, cvel = self.pos[rows], self.quat[rows], self.cvel[rows]
-        b, n = pos.shape[0], NUM_LINKS
-        yaw = self._heading(rows)
+    def observations(self, phases, out: np.ndarray, yaw: np.ndarray | None = None) -> np.ndarray:
+        """State features of SFV §9 / DeepMimic in each heading frame, plus the phase.
+
+        `yaw` is this step's `heading()` (computed here when not given)."""
+        if yaw is None:
+            yaw = self.heading()
+        pos, cvel = self.pos, self.cvel
+        if self._out_views[0] is not out:
+            b, n = out.shape[0], NUM_LINKS
+            self._out_views = (out, out[:, _POS].reshape(b, n, 3), out[:, _ROT].reshape(b, n, 4),
+                               out[:, _LIN].reshape(b, n, 3), out[:, _ANG].reshape(b, n, 3))
+        _, out_pos, out_rot, out_lin, out_ang = self._out_views
         out[:, 0] = pos[:, 0, 2]
-        rel = np.subtract(pos, pos[:, :1], out=self._rel[rows])
-        np.matmul(rel, yaw, out=out[:, _POS].reshape(b, n, 3))
-        self._heading_rotations(quat, yaw, out[:, _ROT].reshape(b, n, 4), rows)
+        rel = np.subtract(pos, pos[:, :1], out=self._rel)
+        np.matmul(rel, yaw, out=out_pos)
+        self._heading_rotations(out_rot)
         # cvel is (angular, linear at the subtree centre of mass); move the linear part to
         # each body's origin: v = v_com + w x (p - com).
         ang = cvel[:, :, :3]
         lever = rel
-        lever += (pos[:, 0] - self.com[rows])[:, None, :]
-        lin = self._cross(ang, lever, self._lin[rows], self._tmp[rows])
+        lever += (pos[:, 0] - self.com)[:, None, :]
+        lin = self._cross(ang, lever, self._lin, self._tmp)
         lin += cvel[:, :, 3:]
-        np.matmul(lin, yaw, out=out[:, _LIN].reshape(b, n, 3))
-        np.matmul(ang, yaw, out=out[:, _ANG].reshape(b, n, 3))
+        np.matmul(lin, yaw, out=out_lin)
+        np.matmul(ang, yaw, out=out_ang)
         out[:, -1] = phases
         return out
 
-    def _heading_rotations(self, quat: np.ndarray, yaw: np.ndarray, out: np.ndarray, rows: slice) -> None:
+    def _heading_rotations(self, out: np.ndarray) -> None:
         """q_h^-1 * q for each yaw q_h = (cos th/2, 0, 0, sin th/2), one sign per rotation.
 
-        Left-multiplying by a fixed quaternion is linear: one (15,4)@(4,4) product per env.
-        """
-        c, s = yaw[:, 0, 0], yaw[:, 1, 0]
-        hc = np.sqrt(np.maximum(0.5 * (1.0 + c), 0.0))
-        hs = np.copysign(np.sqrt(np.maximum(0.5 * (1.0 - c), 0.0)), s)
-        m = self._left[rows]
-        m[:, 0, 0] = m[:, 1, 1] = m[:, 2, 2] = m[:, 3, 3] = hc
-        m[:, 3, 0] = m[:, 2, 1] = hs
-        m[:, 1, 2] = m[:, 0, 3] = -hs
-        np.matmul(quat, m, out=out)
-        negative = out[..., 0] < 0
-        if negative.any():
-            out[negative] *= -1.0  # q and -q are the same rotation
+        Left-multiplying by a fixed quaternion is linear: q @ (c I + s P) per env, with P the
+        signed permutation of the product, then w made non-negative (q ~ -q)."""
+        m = self._left
+        half = self._half
+        np.multiply(half[:, 1], _HALF_YAW_PERMUTATION, out=m)
+        m.reshape(-1, 16)[:, ::5] += half[:, 0, 0]
+        np.matmul(self.quat, m, out=out)
+        sign = self._sign
+        np.copysign(1.0, out[..., :1], out=sign)
+        out *= sign
 
     @staticmethod
     def _cross(a: np.ndarray, b: np.ndarray, out: np.ndarray, tmp: np.ndarray) -> np.ndarray:
@@ -168,26 +209,28 @@ class FeatureExtractor:
         return out
 
     # ------------------------------------------------------------------- reward terms
-    def reward_features(self, rows: slice = slice(None)) -> RewardFeatures:
-        """The reward's features of the captured rows (views into `self.sim`)."""
-        sim = self.sim.slice(rows)
-        qpos = self.qpos[rows]
-        sim.quats[:] = qpos[:, self.quat_qpos]
-        sim.hinges[:] = qpos[:, self.layout.hinge_qpos]
-        sim.ang_vel[:] = self.qvel[rows, 3:]
-        pos = self.pos[rows]
-        ee = np.subtract(pos[:, self._ee], pos[:, :1], out=self._rel[rows, :4])
-        np.matmul(ee, self._heading(rows), out=sim.end_effectors)
-        sim.com[:] = self.com[rows]
+    def reward_features(self, yaw: np.ndarray | None = None) -> RewardFeatures:
+        """The reward's features of the captured rows (`self.sim`, overwritten each call)."""
+        if yaw is None:
+            yaw = self.heading()
+        sim = self.sim
+        values = sim.values
+        values[:, :_ANG_VEL_START] = self.qpos[:, self._rot_qpos]
+        values[:, _ANG_VEL_START:sim.ang_vel_end] = self.qvel[:, 3:]
+        pos = self.pos
+        ee = np.subtract(pos[:, self._ee], pos[:, :1], out=self._ee_rel)
+        np.matmul(ee, yaw, out=sim.end_effectors)
+        values[:, -3:] = self.com
         return sim
 
     # ------------------------------------------------------------ single-env helpers
     def observation(self, data: mujoco.MjData, phase: float, out: np.ndarray) -> np.ndarray:
-        """Capture `data` into row 0 and return its (197,) observation in `out`."""
+        """Capture `data` into row 0 of a batch-of-one extractor and return its (197,)
+        observation in `out`."""
         self.capture(0, data)
-        return self.observations(phase, out.reshape(1, -1), slice(0, 1))[0]
+        return self.observations(phase, out.reshape(1, -1))[0]
 
     def reward_features_of(self, data: mujoco.MjData) -> RewardFeatures:
-        """Capture `data` into row 0; its reward features as a batch of one."""
+        """Capture `data` into row 0 of a batch-of-one extractor; its reward features."""
         self.capture(0, data)
-        return self.reward_features(slice(0, 1))
+        return self.reward_features()

@@ -24,7 +24,6 @@ from actors.reward import ImitationReward, RewardConfig
 from actors.state import StateLayout
 
 INIT_STRATEGIES = ("fsi", "rsi", "state")
-_ONE = slice(0, 1)  # the single env's row in its batch-of-one feature buffers
 
 
 @dataclass(frozen=True)
@@ -112,11 +111,13 @@ class ImitationEnv(gym.Env):
     def step(self, action):
         self.actions.targets(action, out=self.data.ctrl)
         fell, diverged = self.simulate()
-        self.features.capture(0, self.data)
-        row = self.track.reward_features(self.row)
-        reward = 0.0 if diverged else self.reward_fn(self.features.reward_features(_ONE), row, self.reward_terms)
+        features = self.features
+        features.capture(0, self.data)
+        yaw = features.heading()
+        row = self.row
+        reward = 0.0 if diverged else self.reward_fn(features.reward_features(yaw), self.track.reward_features(row), self.reward_terms)
         terminated, truncated = self.ending(fell, diverged)
-        obs = self.features.observations(self.track.phase[self.row], self._obs, _ONE)[0]
+        obs = features.observations(self.track.phase[row], self._obs, yaw)[0]
         return obs.astype(np.float32), reward, terminated, truncated, {}
 
     def simulate(self) -> tuple[bool, bool]:

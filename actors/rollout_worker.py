@@ -101,6 +101,7 @@ class RolloutWorker:
             source = ReferenceStarts(spec.init, self.rng)
         self.env = VectorImitationEnv(spec.motion, spec.env, spec.num_envs, BufferedStarts(source, spec.start_batch), seed=self.seed * 1000, gamma=spec.gamma)
         self.policy: NumpyPolicy | None = None
+        self._weights: dict | None = None
         self._started = False
         self.asi_version = 0
 
@@ -120,8 +121,9 @@ class RolloutWorker:
         t0 = time.perf_counter()
         if self.policy is None:
             self.policy = NumpyPolicy(weights, max_batch=self.spec.num_envs)
-        else:
+        elif weights is not self._weights:  # in-process callers may hand the same dict again
             self.policy.load_weights(weights)
+        self._weights = weights
         env, m = self.env, self.spec.num_envs
         if not self._started:
             env.reset()

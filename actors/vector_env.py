@@ -117,10 +117,11 @@ class VectorImitationEnv:
             features.capture(i, env.data)
             self._rows[i] = env.row
         track = self.track
-        rewards = self.reward_fn.batch(features.reward_features(), track.features.take(self._rows), self._terms)
+        yaw = features.heading()
+        rewards = self.reward_fn.batch(features.reward_features(yaw), track.features.take(self._rows), self._terms)
         rewards[self._diverged] = 0.0
         self.rewards[:] = rewards
-        features.observations(track.phase[self._rows], self._obs64)
+        features.observations(track.phase[self._rows], self._obs64, yaw)
         self.final_obs[:] = self._obs64
         self._ret += rewards
         self._disc += self._discount * rewards

@@ -56,7 +56,7 @@ def parse_args(argv=None):
     p.add_argument("--iterations", type=int, default=5, help="PPO iterations (4096 samples each) per training run")
     p.add_argument("--repeats", type=int, default=3, help="repetitions of every worker count")
     p.add_argument("--seconds", type=float, default=2.0, help="length of one raw-bound measurement")
-    p.add_argument("--envs-per-worker", type=int, default=16, help="envs per worker")
+    p.add_argument("--envs-per-worker", type=int, default=32, help="envs per worker")
     p.add_argument("--physics-hz", type=float, default=300.0, help="physics rate")
     p.add_argument("--motion", default="deepmimic:walk", help="reference motion")
     p.add_argument("--device", default="cpu", help="torch device of the learner (cpu, cuda)")

@@ -263,6 +263,7 @@ class Trainer:
         bar = tqdm(total=config.samples, initial=min(self.samples, config.samples), unit="samples", disable=not self.progress, dynamic_ncols=True)
         record: dict = {}
         start_samples, start_time = self.samples, time.perf_counter()
+        last_plot = start_time
         while self.samples < config.samples:
             t0 = time.perf_counter()
             version = self.iteration
@@ -280,8 +281,11 @@ class Trainer:
             bar.set_postfix(sps=f"{record['samples_per_s']:.0f}", ret=_fmt(record["normalized_return"]), asi=asi_version)
             if self.iteration % config.checkpoint_every == 0 or self.samples >= config.samples:
                 self._checkpoint(learner, asi_version)
-            if config.plot_every and (self.iteration % config.plot_every == 0 or self.samples >= config.samples):
+            last = self.samples >= config.samples
+            if config.plot_every and (last or (self.iteration % config.plot_every == 0
+                                               and time.perf_counter() - last_plot >= config.plot_min_interval_s)):
                 self._plot()
+                last_plot = time.perf_counter()
         bar.close()
         elapsed = time.perf_counter() - start_time
         record["overall_samples_per_s"] = (self.samples - start_samples) / max(elapsed, 1e-9)
@@ -365,7 +369,8 @@ def _set_torch_threads(config: TrainConfig) -> int:
 
     threads = config.torch_threads
     if threads <= 0:
-        local_workers = 0 if config.ray_address else config.workers
-        threads = max(1, (os.cpu_count() or 1) - local_workers)
+        # Sampling and learning take turns (the loop is synchronous and workers block in
+        # sample() between iterations), so the update may use every core of this node.
+        threads = max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
     torch.set_num_threads(threads)
     return threads

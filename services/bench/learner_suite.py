@@ -20,20 +20,27 @@ from services.bench.measure import Summary, interleaved, ratio
 from services.bench.result import SuiteResult
 
 ACTION_DIM = 36
-ENVS = 16  # time-major layout (T, N) as two workers x 8 envs would deliver it
+ENVS = 64  # time-major layout (T, N) as two workers x 32 envs deliver it
 
 
 def random_batch(rng: np.random.Generator, samples: int, envs: int = ENVS) -> dict[str, np.ndarray]:
+    """Random trajectories laid out as workers deliver them: within an episode next_obs[t] is
+    obs[t + 1]; after an episode end (and at the last step) it is a fresh observation."""
     steps = -(-samples // envs)
     shape = (steps, envs)
+    obs = rng.standard_normal((steps + 1, envs, OBS_DIM), dtype=np.float32)
+    terminated, truncated = rng.random(shape) < 0.01, rng.random(shape) < 0.005
+    next_obs = obs[1:].copy()
+    ended = terminated | truncated
+    next_obs[ended] = rng.standard_normal((int(ended.sum()), OBS_DIM), dtype=np.float32)
     return {
-        "obs": rng.standard_normal((*shape, OBS_DIM), dtype=np.float32),
-        "next_obs": rng.standard_normal((*shape, OBS_DIM), dtype=np.float32),
+        "obs": obs[:-1],
+        "next_obs": next_obs,
         "actions": rng.uniform(-1, 1, (*shape, ACTION_DIM)).astype(np.float32),
         "logp": rng.standard_normal(shape, dtype=np.float32),
         "rewards": rng.uniform(0, 1, shape).astype(np.float32),
-        "terminated": rng.random(shape) < 0.01,
-        "truncated": rng.random(shape) < 0.005,
+        "terminated": terminated,
+        "truncated": truncated,
     }
 
 

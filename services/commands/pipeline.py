@@ -17,7 +17,7 @@ def register(sub) -> None:
     p.add_argument("--pose-models", default=None, help="BlazePose model directory (default: `sfv models fetch` cache)")
     p.add_argument("--iterations", type=int, default=None, help="reconstruction optimiser steps")
     p.add_argument("--workers", type=int, default=2, help="rollout workers")
-    p.add_argument("--envs-per-worker", type=int, default=16, help="envs per worker")
+    p.add_argument("--envs-per-worker", type=int, default=32, help="envs per worker")
     p.add_argument("--init", choices=("asi", "rsi", "fsi"), default="asi", help="initial state distribution")
     p.add_argument("--samples", type=int, default=200_000, help="training samples")
     p.add_argument("--batch-size", type=int, default=None, help="samples per PPO iteration (default 4096)")

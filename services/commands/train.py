@@ -11,7 +11,7 @@ def register(sub) -> None:
     p = sub.add_parser("train", help="train a controller that imitates a motion")
     p.add_argument("--motion", default="deepmimic:walk", help="motion name (deepmimic:walk) or file (.npz / DeepMimic .txt)")
     p.add_argument("--workers", type=int, default=2, help="rollout workers (Ray actors)")
-    p.add_argument("--envs-per-worker", type=int, default=16, help="envs per worker, batched policy inference")
+    p.add_argument("--envs-per-worker", type=int, default=32, help="envs per worker, batched policy inference")
     p.add_argument("--init", choices=INIT_MODES, default="asi", help="initial state distribution")
     p.add_argument("--samples", type=int, default=200_000, help="total environment steps")
     p.add_argument("--out", required=True, help="run directory")
@@ -31,6 +31,8 @@ def register(sub) -> None:
     p.add_argument("--batch-size", type=int, default=None, help="samples per PPO iteration (default 4096, the paper's)")
     p.add_argument("--hidden", type=_layer_sizes, default=None, metavar="N,N",
                    help="hidden layer sizes of the policy and value MLPs (default 1024,512, the paper's)")
+    p.add_argument("--epochs", type=int, default=None, help="PPO passes over each batch (default 1, DeepMimic's)")
+    p.add_argument("--policy-lr", type=float, default=None, help="policy learning rate (default: PPOConfig's)")
     p.add_argument("--physics-hz", type=float, default=None, help="physics rate (default 300)")
     p.add_argument("--no-early-termination", action="store_true", help="keep episodes going after a fall (rolls, getups)")
     p.add_argument("--asi-components", type=int, default=10, help="k, Gaussian components of the ASI distribution")
@@ -73,6 +75,10 @@ def build_config(args):
         config.worker_timeout_s = args.worker_timeout_s
     if args.hidden:
         config.ppo.policy_hidden = config.ppo.value_hidden = args.hidden
+    if args.epochs is not None:
+        config.ppo.update_epochs = args.epochs
+    if args.policy_lr is not None:
+        config.ppo.policy_lr = args.policy_lr
     if args.checkpoint_every:
         config.checkpoint_every = args.checkpoint_every
     env = config.env
