@@ -35,9 +35,10 @@ class ActionMapper:
         self.sph_width = self.width * NUM_SPHERICAL
         self.action_dim = self.sph_width + NUM_REVOLUTE
         assert SPH_CTRL + NUM_REVOLUTE == NUM_ACTUATED_DOF
-        self._clipped = np.zeros((1, self.action_dim))
+        self._sph_scale, self._rev_scale = self.scale[:SPH_CTRL].copy(), self.scale[SPH_CTRL:].copy()
         self._targets = np.zeros(NUM_ACTUATED_DOF)
-        self._angle = np.zeros((1, NUM_SPHERICAL))
+        self._scratch: tuple = (0,)  # (rows, clipped actions, their views, angles)
+        self._out_views: tuple = (None,)  # (out, its spherical, revolute and exp-map views)
 
     def targets(self, action: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """PD targets (28,) for one action; writes into `out` (e.g. MjData.ctrl) if given."""
@@ -45,29 +46,35 @@ class ActionMapper:
         self.targets_batch(np.asarray(action).reshape(1, -1), targets.reshape(1, -1))
         return targets
 
+    def _views(self, b: int, out: np.ndarray) -> tuple:
+        """Scratch for b rows and views into `out`, built once (slicing and reshaping cost
+        as much as the arithmetic on these few numbers)."""
+        if self._scratch[0] != b:
+            clipped = np.zeros((b, self.action_dim))
+            block = clipped[:, : self.sph_width].reshape(b, NUM_SPHERICAL, self.width)
+            angle = np.zeros((b, NUM_SPHERICAL))
+            self._scratch = (b, clipped, block[..., 0], block[..., 1:], clipped[:, : SPH_CTRL], clipped[:, self.sph_width:],
+                             angle, angle[..., None])
+        if self._out_views[0] is not out:
+            self._out_views = (out, out[:, :SPH_CTRL].reshape(b, NUM_SPHERICAL, 3), out[:, :SPH_CTRL], out[:, SPH_CTRL:])
+        return self._scratch + self._out_views[1:]
+
     def targets_batch(self, actions: np.ndarray, out: np.ndarray) -> np.ndarray:
         """PD targets (B, 28) for a batch of actions (B, action_dim), into `out`.
 
-        Plain ufunc calls with `out=` throughout: this runs every control step of every env."""
-        b = actions.shape[0]
-        if self._clipped.shape[0] != b:
-            self._clipped = np.zeros((b, self.action_dim))
-            self._angle = np.zeros((b, NUM_SPHERICAL))
-        a = np.minimum(actions, 1.0, out=self._clipped)
+        Plain ufunc calls with `out=` into fixed buffers: this runs every control step."""
+        _, a, first, axis, exp_part, revolute, angle, angle_col, sph, out_sph, out_rev = self._views(actions.shape[0], out)
+        np.minimum(actions, 1.0, out=a)
         np.maximum(a, -1.0, out=a)
-        sph = out[:, :SPH_CTRL].reshape(b, NUM_SPHERICAL, 3)
         if self.parameterisation == "axis_angle":
-            block = a[:, : self.sph_width].reshape(b, NUM_SPHERICAL, 4)
-            axis = block[..., 1:]
-            angle = self._angle
             np.sqrt(np.vecdot(axis, axis, out=angle), out=angle)
             np.maximum(angle, 1e-6, out=angle)
-            np.divide(block[..., 0], angle, out=angle)
+            np.divide(first, angle, out=angle)
             angle *= np.pi
-            np.multiply(axis, angle[..., None], out=sph)
+            np.multiply(axis, angle_col, out=sph)
         else:
-            np.multiply(a[:, :SPH_CTRL], self.scale[:SPH_CTRL], out=out[:, :SPH_CTRL])
-        np.multiply(a[:, self.sph_width:], self.scale[SPH_CTRL:], out=out[:, SPH_CTRL:])
+            np.multiply(exp_part, self._sph_scale, out=out_sph)
+        np.multiply(revolute, self._rev_scale, out=out_rev)
         np.minimum(out, self.upper, out=out)
         np.maximum(out, self.lower, out=out)
         return out

@@ -24,6 +24,11 @@ _ANG = slice(_LIN.stop, _LIN.stop + 3 * NUM_LINKS)
 HINGE_START = 4 * NUM_REWARD_QUATS  # RewardFeatures.values columns: quats, hinges, ang vel, end effectors, com
 _ANG_VEL_START = HINGE_START + 4
 # (w, x, y, z) @ P = (z, y, -x, -w): with c I + s P, the product conj(q_h) * q for q_h = (c, 0, 0, s).
+# w x r as a linear map of the outer product w r^T (flattened row-major): two numpy calls
+# instead of six products and a difference.
+_CROSS_FROM_OUTER = np.zeros((9, 3))
+for _i, (_j, _k) in enumerate(((1, 2), (2, 0), (0, 1))):
+    _CROSS_FROM_OUTER[3 * _j + _k, _i], _CROSS_FROM_OUTER[3 * _k + _j, _i] = 1.0, -1.0
 _HALF_YAW_PERMUTATION = np.array([[0, 0, 0, -1], [0, 0, -1, 0], [0, 1, 0, 0], [1, 0, 0, 0]], dtype=float)
 
 
@@ -48,33 +53,21 @@ class RewardFeatures:
     def __init__(self, values: np.ndarray):
         self.values = values  # (B, D)
         n_ang = values.shape[1] - _ANG_VEL_START - 4 * 3 - 3
-        self.ang_vel_end = _ANG_VEL_START + n_ang
+        ee = _ANG_VEL_START + n_ang
+        # Named views, made once: the reward reads them every control step.
+        self.quats = values[:, :HINGE_START].reshape(-1, NUM_REWARD_QUATS, 4)  # (B, 9, 4)
+        self.hinges = values[:, HINGE_START:_ANG_VEL_START]  # (B, 4)
+        self.ang_vel = values[:, _ANG_VEL_START:ee]  # (B, nv - 3)
+        self.end_effectors = values[:, ee:ee + 12].reshape(-1, 4, 3)  # (B, 4, 3)
+        self.com = values[:, -3:]  # (B, 3)
+        self.ang_vel_end = ee
+        self.tail = values[:, HINGE_START:]  # everything compared by plain squared differences
         # Segments of values[:, HINGE_START:] summed by the reward: hinges, ang vel, end effectors, com.
         self.segments = np.array([0, 4, 4 + n_ang, 4 + n_ang + 12])
 
     @classmethod
     def zeros(cls, nv: int, rows: int = 1) -> "RewardFeatures":
         return cls(np.zeros((rows, _ANG_VEL_START + (nv - 3) + 4 * 3 + 3)))
-
-    @property
-    def quats(self) -> np.ndarray:  # (B, 9, 4)
-        return self.values[:, :HINGE_START].reshape(-1, NUM_REWARD_QUATS, 4)
-
-    @property
-    def hinges(self) -> np.ndarray:  # (B, 4)
-        return self.values[:, HINGE_START:_ANG_VEL_START]
-
-    @property
-    def ang_vel(self) -> np.ndarray:  # (B, nv - 3)
-        return self.values[:, _ANG_VEL_START:self.ang_vel_end]
-
-    @property
-    def end_effectors(self) -> np.ndarray:  # (B, 4, 3)
-        return self.values[:, self.ang_vel_end:self.ang_vel_end + 12].reshape(-1, 4, 3)
-
-    @property
-    def com(self) -> np.ndarray:  # (B, 3)
-        return self.values[:, -3:]
 
     def take(self, rows: np.ndarray) -> "RewardFeatures":
         """Rows gathered by index (a copy), e.g. each env's current reference row."""
@@ -115,17 +108,27 @@ class FeatureExtractor:
         self._copies: list[tuple] = [((), None)] * b  # per row: (MjData it was bound to, ((dst, src), ...))
         # Scratch.
         self._theta = np.zeros(b)
-        self._cos_sin = np.zeros((b, 2))
         self._yaw = np.zeros((b, 3, 3))
         self._yaw[:, 2, 2] = 1.0
         self._half = np.zeros((b, 2, 1, 1))  # cos, sin of half each yaw
+        yaw, half = self._yaw, self._half
+        self._heading_views = (self._theta, self.root_xmat[:, 0], self.root_xmat[:, 3], yaw[:, 0, 0], yaw[:, 1, 0],
+                               yaw[:, 1, 1], yaw[:, 0, 1], half[:, 0, 0, 0], half[:, 1, 0, 0])
         self._left = np.zeros((b, 4, 4))
         self._rel = np.zeros((b, n, 3))
         self._lin = np.zeros((b, n, 3))
-        self._tmp = np.zeros((b, n, 3))
+        self._outer = np.zeros((b, n, 3, 3))
         self._ee_rel = np.zeros((b, 4, 3))
         self._sign = np.zeros((b, n, 1))
         self.sim = RewardFeatures.zeros(nv, b)
+        self._reward_views = (self.sim.values[:, :_ANG_VEL_START], self.qvel[:, 3:], self.pos[:, :1])
+        # Views `observations` uses every step, made once (slicing costs as much as the maths).
+        self._offset = np.zeros((b, 1, 3))
+        ang = self.cvel[:, :, :3]
+        self._obs_views = (self.pos[:, 0, 2], self.pos[:, :1], self.com[:, None, :], self._offset, self._rel, ang,
+                           ang[..., :, None], self._rel[..., None, :], self._outer, self._outer.reshape(b, n, 9),
+                           self.cvel[:, :, 3:], self._lin, self._left, self._left.reshape(b, 16)[:, ::5],
+                           self._half[:, 0, 0], self._half[:, 1], self._sign)
         self._out_views: tuple = (None,)
 
     def capture(self, i: int, data: mujoco.MjData) -> None:
@@ -143,18 +146,16 @@ class FeatureExtractor:
     def heading(self) -> np.ndarray:
         """(B,3,3) M with v_heading = v_world @ M (the inverse of each root's yaw); also keeps
         the cosine and sine of each half yaw for `observations`."""
-        theta = self._theta
-        np.arctan2(self.root_xmat[:, 3], self.root_xmat[:, 0], out=theta)  # yaw of the root's +x axis
-        cs = self._cos_sin
-        np.cos(theta, out=cs[:, 0])
-        np.sin(theta, out=cs[:, 1])
-        yaw = self._yaw  # [[c, -s], [s, c]] in the top-left corner
-        yaw[:, :2, 0] = cs
-        np.negative(cs[:, 1], out=yaw[:, 0, 1])
-        yaw[:, 1, 1] = cs[:, 0]
+        theta, fx, fy, c, s, c_copy, minus_s, half_c, half_s = self._heading_views
+        np.arctan2(fy, fx, out=theta)  # yaw of the root's +x axis
+        np.cos(theta, out=c)  # yaw = [[c, -s], [s, c]] in the top-left corner
+        np.sin(theta, out=s)
+        np.copyto(c_copy, c)
+        np.negative(s, out=minus_s)
         theta *= 0.5
-        np.cos(theta, out=self._half[:, 0, 0, 0])
-        np.sin(theta, out=self._half[:, 1, 0, 0])
+        np.cos(theta, out=half_c)
+        np.sin(theta, out=half_s)
+        yaw = self._yaw
         return yaw
 
     # ----------------------------------------------------------------- observation
@@ -164,48 +165,36 @@ class FeatureExtractor:
         `yaw` is this step's `heading()` (computed here when not given)."""
         if yaw is None:
             yaw = self.heading()
-        pos, cvel = self.pos, self.cvel
         if self._out_views[0] is not out:
             b, n = out.shape[0], NUM_LINKS
-            self._out_views = (out, out[:, _POS].reshape(b, n, 3), out[:, _ROT].reshape(b, n, 4),
-                               out[:, _LIN].reshape(b, n, 3), out[:, _ANG].reshape(b, n, 3))
-        _, out_pos, out_rot, out_lin, out_ang = self._out_views
-        out[:, 0] = pos[:, 0, 2]
-        rel = np.subtract(pos, pos[:, :1], out=self._rel)
+            rot = out[:, _ROT].reshape(b, n, 4)
+            self._out_views = (out, out[:, 0], out[:, _POS].reshape(b, n, 3), rot, rot[..., :1],
+                               out[:, _LIN].reshape(b, n, 3), out[:, _ANG].reshape(b, n, 3), out[:, -1])
+        _, out_height, out_pos, out_rot, out_rot_w, out_lin, out_ang, out_phase = self._out_views
+        (height, root, com, offset, rel, ang, ang_col, lever_row, outer, outer_flat, lin_at_com, lin,
+         left, left_diagonal, half_c, half_s, sign) = self._obs_views
+        np.copyto(out_height, height)
+        np.subtract(self.pos, root, out=rel)
         np.matmul(rel, yaw, out=out_pos)
-        self._heading_rotations(out_rot)
+        # Rotations: q_h^-1 * q for each yaw q_h = (cos th/2, 0, 0, sin th/2). Left-multiplying
+        # by a fixed quaternion is linear, q @ (c I + s P) with P the product's signed
+        # permutation; then w is made non-negative (q and -q are the same rotation).
+        np.multiply(half_s, _HALF_YAW_PERMUTATION, out=left)
+        left_diagonal += half_c
+        np.matmul(self.quat, left, out=out_rot)
+        np.copysign(1.0, out_rot_w, out=sign)
+        out_rot *= sign
         # cvel is (angular, linear at the subtree centre of mass); move the linear part to
-        # each body's origin: v = v_com + w x (p - com).
-        ang = cvel[:, :, :3]
-        lever = rel
-        lever += (pos[:, 0] - self.com)[:, None, :]
-        lin = self._cross(ang, lever, self._lin, self._tmp)
-        lin += cvel[:, :, 3:]
+        # each body's origin: v = v_com + w x (p - com), the cross product as a linear map of
+        # the outer product w r^T.
+        np.subtract(root, com, out=offset)
+        rel += offset  # now the lever p - com
+        np.multiply(ang_col, lever_row, out=outer)
+        np.matmul(outer_flat, _CROSS_FROM_OUTER, out=lin)
+        lin += lin_at_com
         np.matmul(lin, yaw, out=out_lin)
         np.matmul(ang, yaw, out=out_ang)
-        out[:, -1] = phases
-        return out
-
-    def _heading_rotations(self, out: np.ndarray) -> None:
-        """q_h^-1 * q for each yaw q_h = (cos th/2, 0, 0, sin th/2), one sign per rotation.
-
-        Left-multiplying by a fixed quaternion is linear: q @ (c I + s P) per env, with P the
-        signed permutation of the product, then w made non-negative (q ~ -q)."""
-        m = self._left
-        half = self._half
-        np.multiply(half[:, 1], _HALF_YAW_PERMUTATION, out=m)
-        m.reshape(-1, 16)[:, ::5] += half[:, 0, 0]
-        np.matmul(self.quat, m, out=out)
-        sign = self._sign
-        np.copysign(1.0, out[..., :1], out=sign)
-        out *= sign
-
-    @staticmethod
-    def _cross(a: np.ndarray, b: np.ndarray, out: np.ndarray, tmp: np.ndarray) -> np.ndarray:
-        for i, (j, k) in enumerate(((1, 2), (2, 0), (0, 1))):
-            np.multiply(a[..., j], b[..., k], out=out[..., i])
-            np.multiply(a[..., k], b[..., j], out=tmp[..., i])
-        out -= tmp
+        out_phase[...] = phases
         return out
 
     # ------------------------------------------------------------------- reward terms
@@ -214,13 +203,12 @@ class FeatureExtractor:
         if yaw is None:
             yaw = self.heading()
         sim = self.sim
-        values = sim.values
-        values[:, :_ANG_VEL_START] = self.qpos[:, self._rot_qpos]
-        values[:, _ANG_VEL_START:sim.ang_vel_end] = self.qvel[:, 3:]
-        pos = self.pos
-        ee = np.subtract(pos[:, self._ee], pos[:, :1], out=self._ee_rel)
+        rotations, qvel_rates, root = self._reward_views
+        np.copyto(rotations, self.qpos.take(self._rot_qpos, axis=1))
+        np.copyto(sim.ang_vel, qvel_rates)
+        ee = np.subtract(self.pos.take(self._ee, axis=1), root, out=self._ee_rel)
         np.matmul(ee, yaw, out=sim.end_effectors)
-        values[:, -3:] = self.com
+        np.copyto(sim.com, self.com)
         return sim
 
     # ------------------------------------------------------------ single-env helpers

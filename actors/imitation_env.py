@@ -64,6 +64,7 @@ class ImitationEnv(gym.Env):
         self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
         self.state_dim = self.layout.state_dim
         # Per-step buffers: the hot path writes into these instead of allocating.
+        self._ctrl = self.data.ctrl.reshape(1, -1)  # one view kept: MjData hands out a new array per access
         self._obs = np.zeros((1, OBS_DIM), dtype=np.float64)
         self._fall_mask = np.zeros(self.model.ngeom, dtype=bool)
         self._fall_mask[self.humanoid.fall_geom_ids] = True
@@ -73,6 +74,7 @@ class ImitationEnv(gym.Env):
         assert (int(mujoco.mjtWarning.mjWARN_BADQVEL), int(mujoco.mjtWarning.mjWARN_BADQACC)) == (first_bad + 1, first_bad + 2)
         self._divergence_warnings = self.data.warning.number[first_bad : first_bad + 3]
         self.reward_terms = np.zeros(4)
+        self._terms = self.reward_terms.reshape(1, 4)  # the same numbers, as a batch of one
         self._start = 0
         self._step = 0
         self._max_steps = 1
@@ -109,13 +111,13 @@ class ImitationEnv(gym.Env):
 
     # ------------------------------------------------------------------------- step
     def step(self, action):
-        self.actions.targets(action, out=self.data.ctrl)
+        self.actions.targets_batch(np.asarray(action).reshape(1, -1), self._ctrl)
         fell, diverged = self.simulate()
         features = self.features
         features.capture(0, self.data)
         yaw = features.heading()
         row = self.row
-        reward = 0.0 if diverged else self.reward_fn(features.reward_features(yaw), self.track.reward_features(row), self.reward_terms)
+        reward = 0.0 if diverged else float(self.reward_fn.batch(features.reward_features(yaw), self.track.reward_features(row), self._terms)[0])
         terminated, truncated = self.ending(fell, diverged)
         obs = features.observations(self.track.phase[row], self._obs, yaw)[0]
         return obs.astype(np.float32), reward, terminated, truncated, {}
@@ -130,7 +132,8 @@ class ImitationEnv(gym.Env):
         self._step += 1
         # MuJoCo resets the data and counts a warning when the simulation blows up: end the
         # episode as a fall rather than carry on from a teleported state.
-        diverged = bool(self._divergence_warnings.any())
+        warnings = self._divergence_warnings
+        diverged = bool(warnings[0] or warnings[1] or warnings[2])  # cheaper than .any() on 3 ints
         fell = self.config.early_termination and self._fallen()
         return fell, diverged
 

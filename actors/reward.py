@@ -43,17 +43,18 @@ class ImitationReward:
         c = config
         self._weights = np.array([c.pose_weight, c.velocity_weight, c.end_effector_weight, c.com_weight])
         self._scales = -np.array([c.pose_scale, c.velocity_scale, c.end_effector_scale, c.com_scale])
-        self._scratch: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._scratch: dict[tuple[int, int], tuple] = {}  # per (B, D): work buffers and their views
+        self._terms_views: tuple = (None,)
 
     def batch(self, sim: RewardFeatures, ref: RewardFeatures, terms: np.ndarray) -> np.ndarray:
         """Rewards (B,) and their four terms in `terms` (B, 4)."""
-        b, width = sim.values.shape
-        if (b, width) not in self._scratch:
-            self._scratch[b, width] = (np.zeros((b, width - HINGE_START)), np.zeros((b, 4)), np.zeros((b, NUM_REWARD_QUATS)))
-        diff, sums, angle = self._scratch[b, width]
+        diff, sums, sums_rest, hinge_sq, angle, rewards = self._buffers(sim.values.shape)
+        if self._terms_views[0] is not terms:
+            self._terms_views = (terms, terms[:, 0], terms[:, 1:])
+        _, pose_term, other_terms = self._terms_views
         # Hinge angles, angular velocities, end effectors, centre of mass: squared differences
         # summed per segment in one pass over each row.
-        np.subtract(sim.values[:, HINGE_START:], ref.values[:, HINGE_START:], out=diff)
+        np.subtract(sim.tail, ref.tail, out=diff)
         np.square(diff, out=diff)
         np.add.reduceat(diff, sim.segments, axis=1, out=sums)
         # The angle of q*^-1 q is 2 acos|<q*, q>|; hinges add their squared angle gap.
@@ -62,12 +63,20 @@ class ImitationReward:
         np.minimum(angle, 1.0, out=angle)
         np.arccos(angle, out=angle)
         angle *= 2.0
-        np.vecdot(angle, angle, out=terms[:, 0])
-        terms[:, 0] += sums[:, 0]
-        terms[:, 1:] = sums[:, 1:]
+        np.vecdot(angle, angle, out=pose_term)
+        pose_term += hinge_sq
+        np.copyto(other_terms, sums_rest)
         np.multiply(terms, self._scales, out=terms)
         np.exp(terms, out=terms)
-        return terms @ self._weights
+        return np.matmul(terms, self._weights, out=rewards)
+
+    def _buffers(self, shape: tuple[int, int]) -> tuple:
+        if shape not in self._scratch:
+            b, width = shape
+            sums = np.zeros((b, 4))
+            self._scratch[shape] = (np.zeros((b, width - HINGE_START)), sums, sums[:, 1:], sums[:, 0],
+                                    np.zeros((b, NUM_REWARD_QUATS)), np.zeros(b))
+        return self._scratch[shape]
 
     def __call__(self, sim: RewardFeatures, ref: RewardFeatures, terms: np.ndarray | None = None) -> float:
         """Reward of a batch of one; `terms` (4,) receives the four terms if given."""
