@@ -90,6 +90,10 @@ class PPOConfig:
     def __post_init__(self) -> None:
         self.policy_hidden = tuple(int(h) for h in self.policy_hidden)
         self.value_hidden = tuple(int(h) for h in self.value_hidden)
+        self.validate()
+
+    def validate(self) -> None:
+        """Raise ConfigError naming every bad field (also after fields were changed in place)."""
         problems = []
         if self.optimizer not in ("adam", "sgd"):
             problems.append(f"optimizer must be 'adam' or 'sgd', got {self.optimizer!r}")

@@ -8,6 +8,7 @@ from actors.humanoid import PhysicsConfig
 from actors.imitation_env import EnvConfig
 from actors.reward import RewardConfig
 from learner.config import PPOConfig
+from learner.errors import ConfigError
 
 INIT_MODES = ("asi", "rsi", "fsi")
 
@@ -53,6 +54,12 @@ class TrainConfig:
                 raise SfvError(f"--{name.replace('_', '-')} must be positive, got {getattr(self, name)}")
         if self.asi_tls_ca and not self.asi_address:
             raise SfvError("--asi-tls-ca needs --asi-address: the embedded ASI server does not serve TLS")
+        try:
+            self.ppo.validate()
+        except ConfigError as exc:
+            raise SfvError(str(exc)) from None
+        if self.torch_threads < 0:
+            raise SfvError(f"--torch-threads must be >= 0 (0: every core), got {self.torch_threads}")
         if self.asi_outage_s < 0:
             raise SfvError(f"--asi-outage-s must be >= 0, got {self.asi_outage_s}")
 

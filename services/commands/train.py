@@ -31,8 +31,10 @@ def register(sub) -> None:
     p.add_argument("--batch-size", type=int, default=None, help="samples per PPO iteration (default 4096, the paper's)")
     p.add_argument("--hidden", type=_layer_sizes, default=None, metavar="N,N",
                    help="hidden layer sizes of the policy and value MLPs (default 1024,512, the paper's)")
-    p.add_argument("--epochs", type=int, default=None, help="PPO passes over each batch (default 1, DeepMimic's)")
-    p.add_argument("--policy-lr", type=float, default=None, help="policy learning rate (default: PPOConfig's)")
+    p.add_argument("--epochs", type=_positive(int), default=None, help="PPO passes over each batch (default 1, DeepMimic's)")
+    p.add_argument("--policy-lr", type=_positive(float), default=None, help="policy learning rate (default 5e-5, Adam)")
+    p.add_argument("--torch-threads", type=_positive(int), default=None,
+                   help="learner's torch threads (default: every core; workers wait while the learner updates)")
     p.add_argument("--physics-hz", type=float, default=None, help="physics rate (default 300)")
     p.add_argument("--no-early-termination", action="store_true", help="keep episodes going after a fall (rolls, getups)")
     p.add_argument("--asi-components", type=int, default=10, help="k, Gaussian components of the ASI distribution")
@@ -75,6 +77,8 @@ def build_config(args):
         config.worker_timeout_s = args.worker_timeout_s
     if args.hidden:
         config.ppo.policy_hidden = config.ppo.value_hidden = args.hidden
+    if args.torch_threads is not None:
+        config.torch_threads = args.torch_threads
     if args.epochs is not None:
         config.ppo.update_epochs = args.epochs
     if args.policy_lr is not None:
@@ -88,6 +92,23 @@ def build_config(args):
         env = dataclasses.replace(env, early_termination=False)
     config.env = env
     return config
+
+
+def _positive(kind):
+    """argparse type: a number of `kind` greater than zero (argparse names the flag on error)."""
+    import argparse
+
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            value = None
+        if value is None or not value > 0:
+            raise argparse.ArgumentTypeError(f"expected a positive {kind.__name__}, got {text!r}")
+        return value
+
+    parse.__name__ = kind.__name__
+    return parse
 
 
 def _layer_sizes(text: str) -> tuple[int, ...]:

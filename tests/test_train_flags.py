@@ -1,0 +1,46 @@
+"""`sfv train` flags that reach the PPO and learner settings, and their validation."""
+from __future__ import annotations
+
+import argparse
+import os
+
+import pytest
+
+from actors.errors import SfvError
+from services.commands import train
+from services.trainer import _set_torch_threads
+
+
+def parse(*argv: str) -> argparse.Namespace:
+    parser = argparse.ArgumentParser()
+    train.register(parser.add_subparsers())
+    return parser.parse_args(["train", *argv])
+
+
+def test_epochs_learning_rate_and_threads_reach_the_config(tmp_path):
+    config = train.build_config(parse("--out", str(tmp_path / "run"), "--epochs", "3", "--policy-lr", "1e-4", "--torch-threads", "1"))
+    config.validate()
+    assert (config.ppo.update_epochs, config.ppo.policy_lr, config.torch_threads) == (3, 1e-4, 1)
+    assert _set_torch_threads(config) == 1
+
+
+def test_defaults_are_one_pass_and_every_core(tmp_path):
+    config = train.build_config(parse("--out", str(tmp_path / "run")))
+    assert config.ppo.update_epochs == 1  # DeepMimic's single pass over each batch
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert _set_torch_threads(config) == cores
+
+
+@pytest.mark.parametrize("flag, value", [("--epochs", "0"), ("--torch-threads", "-1"), ("--policy-lr", "-1e-5"), ("--epochs", "two")])
+def test_bad_flag_values_exit_2_naming_the_flag(tmp_path, capsys, flag, value):
+    with pytest.raises(SystemExit) as exit_info:
+        parse("--out", str(tmp_path / "run"), f"{flag}={value}")
+    assert exit_info.value.code == 2
+    assert flag in capsys.readouterr().err
+
+
+def test_ppo_settings_changed_in_place_are_validated_before_training(tmp_path):
+    config = train.build_config(parse("--out", str(tmp_path / "run")))
+    config.ppo.update_epochs = 0
+    with pytest.raises(SfvError, match="update_epochs"):
+        config.validate()
