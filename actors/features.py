@@ -60,7 +60,6 @@ class RewardFeatures:
         self.ang_vel = values[:, _ANG_VEL_START:ee]  # (B, nv - 3)
         self.end_effectors = values[:, ee:ee + 12].reshape(-1, 4, 3)  # (B, 4, 3)
         self.com = values[:, -3:]  # (B, 3)
-        self.ang_vel_end = ee
         self.tail = values[:, HINGE_START:]  # everything compared by plain squared differences
         # Segments of values[:, HINGE_START:] summed by the reward: hinges, ang vel, end effectors, com.
         self.segments = np.array([0, 4, 4 + n_ang, 4 + n_ang + 12])
@@ -111,25 +110,28 @@ class FeatureExtractor:
         self._yaw = np.zeros((b, 3, 3))
         self._yaw[:, 2, 2] = 1.0
         self._half = np.zeros((b, 2, 1, 1))  # cos, sin of half each yaw
-        yaw, half = self._yaw, self._half
-        self._heading_views = (self._theta, self.root_xmat[:, 0], self.root_xmat[:, 3], yaw[:, 0, 0], yaw[:, 1, 0],
-                               yaw[:, 1, 1], yaw[:, 0, 1], half[:, 0, 0, 0], half[:, 1, 0, 0])
         self._left = np.zeros((b, 4, 4))
         self._rel = np.zeros((b, n, 3))
         self._lin = np.zeros((b, n, 3))
         self._outer = np.zeros((b, n, 3, 3))
         self._ee_rel = np.zeros((b, 4, 3))
         self._sign = np.zeros((b, n, 1))
-        self.sim = RewardFeatures.zeros(nv, b)
-        self._reward_views = (self.sim.values[:, :_ANG_VEL_START], self.qvel[:, 3:], self.pos[:, :1])
-        # Views `observations` uses every step, made once (slicing costs as much as the maths).
         self._offset = np.zeros((b, 1, 3))
-        ang = self.cvel[:, :, :3]
+        self.sim = RewardFeatures.zeros(nv, b)
+        self._make_views(b, n)
+
+    def _make_views(self, b: int, n: int) -> None:
+        """The slices and reshapes every step uses, made once: for a few envs, making a view
+        costs about as much as the arithmetic on it."""
+        yaw, half, ang = self._yaw, self._half, self.cvel[:, :, :3]
+        self._heading_views = (self._theta, self.root_xmat[:, 0], self.root_xmat[:, 3], yaw[:, 0, 0], yaw[:, 1, 0],
+                               yaw[:, 1, 1], yaw[:, 0, 1], half[:, 0, 0, 0], half[:, 1, 0, 0])
+        self._reward_views = (self.sim.values[:, :_ANG_VEL_START], self.qvel[:, 3:], self.pos[:, :1])
         self._obs_views = (self.pos[:, 0, 2], self.pos[:, :1], self.com[:, None, :], self._offset, self._rel, ang,
                            ang[..., :, None], self._rel[..., None, :], self._outer, self._outer.reshape(b, n, 9),
                            self.cvel[:, :, 3:], self._lin, self._left, self._left.reshape(b, 16)[:, ::5],
-                           self._half[:, 0, 0], self._half[:, 1], self._sign)
-        self._out_views: tuple = (None,)
+                           half[:, 0, 0], half[:, 1], self._sign)
+        self._out_views: tuple = (None,)  # the observation buffer last written and views into it
 
     def capture(self, i: int, data: mujoco.MjData) -> None:
         """Copy env i's state (after `update_kinematics`) into row i."""
