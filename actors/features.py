@@ -68,9 +68,13 @@ class RewardFeatures:
     def zeros(cls, nv: int, rows: int = 1) -> "RewardFeatures":
         return cls(np.zeros((rows, _ANG_VEL_START + (nv - 3) + 4 * 3 + 3)))
 
-    def take(self, rows: np.ndarray) -> "RewardFeatures":
-        """Rows gathered by index (a copy), e.g. each env's current reference row."""
-        return RewardFeatures(self.values[rows])
+    def take(self, rows: np.ndarray, out: "RewardFeatures | None" = None) -> "RewardFeatures":
+        """Rows gathered by index (a copy), e.g. each env's current reference row; into
+        `out`'s buffer when given (the per-step path allocates nothing)."""
+        if out is None:
+            return RewardFeatures(self.values[rows])
+        np.take(self.values, rows, axis=0, out=out.values)
+        return out
 
     def slice(self, rows: slice) -> "RewardFeatures":
         return RewardFeatures(self.values[rows])
@@ -218,7 +222,7 @@ class FeatureExtractor:
         """Capture `data` into row 0 of a batch-of-one extractor and return its (197,)
         observation in `out`."""
         self.capture(0, data)
-        return self.observations(phase, out.reshape(1, -1))[0]
+        return self.observations(phase, out if out.ndim == 2 else out.reshape(1, -1))[0]
 
     def reward_features_of(self, data: mujoco.MjData) -> RewardFeatures:
         """Capture `data` into row 0 of a batch-of-one extractor; its reward features."""

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from actors.features import OBS_DIM, FeatureExtractor
+from actors.features import OBS_DIM, FeatureExtractor, RewardFeatures
 from actors.humanoid import Humanoid
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.initial_states import BufferedStarts
@@ -75,6 +75,7 @@ class VectorImitationEnv:
         self.early_termination = config.early_termination
         self._targets = np.zeros((num_envs, first.model.nu))
         self._rows = np.zeros(num_envs, dtype=np.int64)
+        self._reference = RewardFeatures.zeros(first.model.nv, num_envs)  # each env's reference row, per step
         self._fell = np.zeros(num_envs, dtype=bool)
         self._diverged = np.zeros(num_envs, dtype=bool)
         self._terms = np.zeros((num_envs, 4))
@@ -118,7 +119,7 @@ class VectorImitationEnv:
             self._rows[i] = env.row
         track = self.track
         yaw = features.heading()
-        rewards = self.reward_fn.batch(features.reward_features(yaw), track.features.take(self._rows), self._terms)
+        rewards = self.reward_fn.batch(features.reward_features(yaw), track.features.take(self._rows, self._reference), self._terms)
         rewards[self._diverged] = 0.0
         self.rewards[:] = rewards
         features.observations(track.phase[self._rows], self._obs64, yaw)

@@ -28,6 +28,13 @@ def _check_shapes(**arrays: np.ndarray) -> tuple[int, int]:
     return first
 
 
+def _episode_masks(terminated: np.ndarray, truncated: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(alive, continues) as float64: 0 where s_{t+1} is terminal / where the episode ends at t."""
+    alive = 1.0 - np.asarray(terminated, dtype=np.float64)
+    continues = 1.0 - np.asarray(np.logical_or(terminated, truncated), dtype=np.float64)
+    return alive, continues
+
+
 def gae_advantages(
     rewards: np.ndarray,
     values: np.ndarray,
@@ -41,8 +48,7 @@ def gae_advantages(
     steps, _ = _check_shapes(
         rewards=rewards, values=values, next_values=next_values, terminated=terminated, truncated=truncated
     )
-    alive = 1.0 - np.asarray(terminated, dtype=np.float64)
-    continues = 1.0 - np.asarray(np.logical_or(terminated, truncated), dtype=np.float64)
+    alive, continues = _episode_masks(terminated, truncated)
     deltas = rewards + gamma * alive * next_values - np.asarray(values, dtype=np.float64)
     advantages = np.empty_like(deltas)
     running = np.zeros_like(deltas[0])
@@ -66,8 +72,7 @@ def td_lambda_returns(
     and the whole bracket by 0 where it terminated.
     """
     steps, _ = _check_shapes(rewards=rewards, next_values=next_values, terminated=terminated, truncated=truncated)
-    alive = 1.0 - np.asarray(terminated, dtype=np.float64)
-    continues = 1.0 - np.asarray(np.logical_or(terminated, truncated), dtype=np.float64)
+    alive, continues = _episode_masks(terminated, truncated)
     next_values = np.asarray(next_values, dtype=np.float64)
     returns = np.empty(np.shape(rewards), dtype=np.float64)
     following = np.asarray(next_values[-1], dtype=np.float64)  # beyond the block: bootstrap
