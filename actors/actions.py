@@ -3,12 +3,18 @@
 Actions are normalised: the policy's output lives in [-1, 1] per component (the env clips).
 Layout: the 8 spherical joints first, then the 4 revolute joints, each group in skeleton
 order (`skeleton.JOINT_NAMES` filtered), the same order as the actuators in `humanoid.py`.
-- "axis_angle" (SFV's 36-D, the default): per spherical joint (angle, axis x, y, z), the angle
-  scaled by pi, the axis normalised; per revolute joint one angle. The target is the
-  rotation vector angle * axis, which is what a MuJoCo ball-joint actuator measures.
-- "exp_map" (28-D): per spherical joint the rotation vector directly, per revolute an angle.
-Each target is then clipped to the joint's per-axis limits (Z-up axes). Revolute angles and
-exp-map components are scaled so that +-1 reaches the farther limit of each axis.
+- "exp_map" (28-D, the default): per spherical joint the rotation vector directly, per
+  revolute an angle. DeepMimic's current code and MimicKit use it.
+- "axis_angle" (SFV's 36-D): per spherical joint (angle, axis x, y, z), the angle scaled by
+  pi, the axis normalised; per revolute joint one angle. The target is the rotation vector
+  angle * axis, which is what a MuJoCo ball-joint actuator measures. It has a dead point at
+  zero: (angle, axis) and (-angle, -axis) are the same target, so around a zero mean the
+  expected gradient on the 8 ball joints cancels and each step's noise throws the target in
+  a random 3-D direction (DeepMimic's 2018 code offset the default axis to escape it).
+Targets are absolute (+-1 reaches the farther limit of each axis) or, with `residual_scale`,
+residual: reference target + residual_scale (rad) * action, the dynamic-camera paper's
+eq. 1 (the zero action then tracks the reference instead of straightening every joint).
+Each target is then clipped to the joint's per-axis limits (Z-up axes).
 """
 from __future__ import annotations
 
@@ -24,10 +30,13 @@ SPH_CTRL = 3 * NUM_SPHERICAL  # 24: controls of spherical joints come first
 
 
 class ActionMapper:
-    def __init__(self, parameterisation: str = "axis_angle"):
+    def __init__(self, parameterisation: str = "exp_map", residual_scale: float | None = None):
         if parameterisation not in ACTION_PARAMETERISATIONS:
             raise ValueError(f"action parameterisation must be one of {ACTION_PARAMETERISATIONS}, got {parameterisation!r}")
+        if residual_scale is not None and (parameterisation != "exp_map" or not residual_scale > 0):
+            raise ValueError(f"residual targets need exp_map actions and a positive scale, got {parameterisation!r}, {residual_scale!r}")
         self.parameterisation = parameterisation
+        self.residual_scale = residual_scale
         limits = np.concatenate([joint_limits_zup(LINKS[i]) for i in SPHERICAL_LINKS + REVOLUTE_LINKS])  # (28, 2)
         self.lower, self.upper = limits[:, 0].copy(), limits[:, 1].copy()
         self.scale = np.maximum(np.abs(self.lower), np.abs(self.upper))
@@ -35,15 +44,22 @@ class ActionMapper:
         self.sph_width = self.width * NUM_SPHERICAL
         self.action_dim = self.sph_width + NUM_REVOLUTE
         assert SPH_CTRL + NUM_REVOLUTE == NUM_ACTUATED_DOF
+        if residual_scale is not None:
+            self.scale = np.full_like(self.scale, residual_scale)
         self._sph_scale, self._rev_scale = self.scale[:SPH_CTRL].copy(), self.scale[SPH_CTRL:].copy()
         self._targets = np.zeros(NUM_ACTUATED_DOF)
         self._scratch: tuple = (0,)  # (rows, clipped actions, their views, angles)
         self._out_views: tuple = (None,)  # (out, its spherical, revolute and exp-map views)
 
-    def targets(self, action: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-        """PD targets (28,) for one action; writes into `out` (e.g. MjData.ctrl) if given."""
+    @property
+    def residual(self) -> bool:
+        return self.residual_scale is not None
+
+    def targets(self, action: np.ndarray, out: np.ndarray | None = None, base: np.ndarray | None = None) -> np.ndarray:
+        """PD targets (28,) for one action; writes into `out` (e.g. MjData.ctrl) if given;
+        `base` (28,) is the reference target residual actions add to."""
         targets = self._targets if out is None else out
-        self.targets_batch(np.asarray(action).reshape(1, -1), targets.reshape(1, -1))
+        self.targets_batch(np.asarray(action).reshape(1, -1), targets.reshape(1, -1), None if base is None else base.reshape(1, -1))
         return targets
 
     def _views(self, b: int, out: np.ndarray) -> tuple:
@@ -59,8 +75,9 @@ class ActionMapper:
             self._out_views = (out, out[:, :SPH_CTRL].reshape(b, NUM_SPHERICAL, 3), out[:, :SPH_CTRL], out[:, SPH_CTRL:])
         return self._scratch + self._out_views[1:]
 
-    def targets_batch(self, actions: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """PD targets (B, 28) for a batch of actions (B, action_dim), into `out`.
+    def targets_batch(self, actions: np.ndarray, out: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
+        """PD targets (B, 28) for a batch of actions (B, action_dim), into `out`; residual
+        actions add to `base` (B, 28), each env's reference targets.
 
         Plain ufunc calls with `out=` into fixed buffers: this runs every control step."""
         _, a, first, axis, exp_part, revolute, angle, angle_col, sph, out_sph, out_rev = self._views(actions.shape[0], out)
@@ -75,14 +92,21 @@ class ActionMapper:
         else:
             np.multiply(exp_part, self._sph_scale, out=out_sph)
         np.multiply(revolute, self._rev_scale, out=out_rev)
+        if self.residual_scale is not None:
+            if base is None:
+                raise ValueError("residual actions need the reference targets (base)")
+            out += base
         np.minimum(out, self.upper, out=out)
         np.maximum(out, self.lower, out=out)
         return out
 
-    def action_for_targets(self, targets: np.ndarray) -> np.ndarray:
+    def action_for_targets(self, targets: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
         """An action whose targets are `targets` (inverse map, within limits); for tests and
-        for driving the character with the reference pose."""
+        for driving the character with the reference pose. Residual actions are relative
+        to `base` (zero when not given)."""
         action = np.zeros(self.action_dim)
+        if self.residual_scale is not None and base is not None:
+            targets = np.asarray(targets, dtype=np.float64) - base
         rv = np.asarray(targets[:SPH_CTRL], dtype=np.float64).reshape(NUM_SPHERICAL, 3)
         if self.parameterisation == "axis_angle":
             angle = np.linalg.norm(rv, axis=1)

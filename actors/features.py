@@ -16,6 +16,12 @@ from actors.skeleton import END_EFFECTOR_LINKS, NUM_LINKS
 from actors.state import StateLayout
 
 OBS_DIM = 1 + NUM_LINKS * (3 + 4 + 3 + 3) + 1  # 197: height, link pos/rot/lin vel/ang vel, phase
+REFERENCE_OBS_WIDTH = 3 + 4  # per observed reference step: root position and rotation in the heading frame
+
+
+def observation_dim(reference_steps: int = 0) -> int:
+    """Observation width with `reference_steps` future reference roots (inserted before the phase)."""
+    return OBS_DIM + REFERENCE_OBS_WIDTH * reference_steps
 NUM_REWARD_QUATS = 9  # root (world) + 8 ball joints (local); the 4 hinges compare angles
 _POS = slice(1, 1 + 3 * NUM_LINKS)
 _ROT = slice(_POS.stop, _POS.stop + 4 * NUM_LINKS)
@@ -33,7 +39,8 @@ _HALF_YAW_PERMUTATION = np.array([[0, 0, 0, -1], [0, 0, -1, 0], [0, 1, 0, 0], [1
 
 
 def update_kinematics(model: mujoco.MjModel, data: mujoco.MjData) -> None:
-    """Positions, centre of mass and body velocities for the current qpos/qvel.
+    """Positions, centre of mass, body velocities and the centre of mass's velocity for the
+    current qpos/qvel.
 
     mj_step leaves xpos / cvel at the state before its last integration; these three calls
     (much cheaper than mj_forward) bring them up to the state the policy will act on.
@@ -41,6 +48,7 @@ def update_kinematics(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     mujoco.mj_kinematics(model, data)
     mujoco.mj_comPos(model, data)
     mujoco.mj_comVel(model, data)
+    mujoco.mj_subtreeVel(model, data)  # subtree_linvel[1]: the centre of mass's velocity (reward)
 
 
 class RewardFeatures:
@@ -48,25 +56,33 @@ class RewardFeatures:
     flat (B, D) array so the reward's differences and sums are a few whole-row operations:
     9 quaternions (root in the world, 8 ball joints local), 4 hinge angles, the nv-3 angular
     velocity coordinates of qvel (root and ball joints in local frames, hinge rates), the 4
-    end effectors relative to the root in the heading frame, and the world centre of mass."""
+    end effectors (DeepMimic's: horizontal offset from the root and height above the ground,
+    in the heading frame), the root's world position and linear velocity, and the world
+    centre of mass's velocity and position."""
 
     def __init__(self, values: np.ndarray):
         self.values = values  # (B, D)
-        n_ang = values.shape[1] - _ANG_VEL_START - 4 * 3 - 3
+        n_ang = values.shape[1] - _ANG_VEL_START - 4 * 3 - 4 * 3
         ee = _ANG_VEL_START + n_ang
         # Named views, made once: the reward reads them every control step.
         self.quats = values[:, :HINGE_START].reshape(-1, NUM_REWARD_QUATS, 4)  # (B, 9, 4)
         self.hinges = values[:, HINGE_START:_ANG_VEL_START]  # (B, 4)
         self.ang_vel = values[:, _ANG_VEL_START:ee]  # (B, nv - 3)
         self.end_effectors = values[:, ee:ee + 12].reshape(-1, 4, 3)  # (B, 4, 3)
-        self.com = values[:, -3:]  # (B, 3)
+        self.root_pos = values[:, ee + 12:ee + 15]  # (B, 3) world
+        self.root_xy = values[:, ee + 12:ee + 14]
+        self.root_lin_vel = values[:, ee + 15:ee + 18]  # (B, 3) world
+        self.com_vel = values[:, ee + 18:ee + 21]  # (B, 3) world
+        self.com = values[:, ee + 21:ee + 24]  # (B, 3) world
         self.tail = values[:, HINGE_START:]  # everything compared by plain squared differences
-        # Segments of values[:, HINGE_START:] summed by the reward: hinges, ang vel, end effectors, com.
-        self.segments = np.array([0, 4, 4 + n_ang, 4 + n_ang + 12])
+        # Column ranges of `tail` (for the reward's weight matrices).
+        self.tail_columns = {"hinges": (0, 4), "ang_vel": (4, 4 + n_ang), "end_effectors": (4 + n_ang, 16 + n_ang),
+                             "root_pos": (16 + n_ang, 19 + n_ang), "root_lin_vel": (19 + n_ang, 22 + n_ang),
+                             "com_vel": (22 + n_ang, 25 + n_ang), "com": (25 + n_ang, 28 + n_ang)}
 
     @classmethod
     def zeros(cls, nv: int, rows: int = 1) -> "RewardFeatures":
-        return cls(np.zeros((rows, _ANG_VEL_START + (nv - 3) + 4 * 3 + 3)))
+        return cls(np.zeros((rows, _ANG_VEL_START + (nv - 3) + 4 * 3 + 4 * 3)))
 
     def take(self, rows: np.ndarray, out: "RewardFeatures | None" = None) -> "RewardFeatures":
         """Rows gathered by index (a copy), e.g. each env's current reference row; into
@@ -105,6 +121,7 @@ class FeatureExtractor:
         self.quat = np.zeros((b, n, 4))
         self.cvel = np.zeros((b, n, 6))
         self.com = np.zeros((b, 3))
+        self.com_vel = np.zeros((b, 3))
         self.root_xmat = np.zeros((b, 9))
         self.qpos = np.zeros((b, nq))
         self.qvel = np.zeros((b, nv))
@@ -130,7 +147,8 @@ class FeatureExtractor:
         yaw, half, ang = self._yaw, self._half, self.cvel[:, :, :3]
         self._heading_views = (self._theta, self.root_xmat[:, 0], self.root_xmat[:, 3], yaw[:, 0, 0], yaw[:, 1, 0],
                                yaw[:, 1, 1], yaw[:, 0, 1], half[:, 0, 0, 0], half[:, 1, 0, 0])
-        self._reward_views = (self.sim.values[:, :_ANG_VEL_START], self.qvel[:, 3:], self.pos[:, :1])
+        self._reward_views = (self.sim.values[:, :_ANG_VEL_START], self.qvel[:, 3:], self.pos[:, :1], self.pos[:, 0],
+                              self.pos[:, :1, 2], self.sim.end_effectors[..., 2], self.qvel[:, :3])
         self._obs_views = (self.pos[:, 0, 2], self.pos[:, :1], self.com[:, None, :], self._offset, self._rel, ang,
                            ang[..., :, None], self._rel[..., None, :], self._outer, self._outer.reshape(b, n, 9),
                            self.cvel[:, :, 3:], self._lin, self._left, self._left.reshape(b, 16)[:, ::5],
@@ -143,7 +161,8 @@ class FeatureExtractor:
         if bound is not data:
             # MjData's arrays are fixed views of its buffers: build the (row, field) pairs once.
             copies = ((self.pos[i], data.xpos[1:]), (self.quat[i], data.xquat[1:]), (self.cvel[i], data.cvel[1:]),
-                      (self.com[i], data.subtree_com[1]), (self.root_xmat[i], data.xmat[1]),
+                      (self.com[i], data.subtree_com[1]), (self.com_vel[i], data.subtree_linvel[1]),
+                      (self.root_xmat[i], data.xmat[1]),
                       (self.qpos[i], data.qpos), (self.qvel[i], data.qvel))
             self._copies[i] = (data, copies)
         for dst, src in copies:
@@ -165,18 +184,27 @@ class FeatureExtractor:
         return yaw
 
     # ----------------------------------------------------------------- observation
-    def observations(self, phases, out: np.ndarray, yaw: np.ndarray | None = None) -> np.ndarray:
+    def observations(self, phases, out: np.ndarray, yaw: np.ndarray | None = None, reference: tuple | None = None) -> np.ndarray:
         """State features of SFV §9 / DeepMimic in each heading frame, plus the phase.
 
-        `yaw` is this step's `heading()` (computed here when not given)."""
+        `yaw` is this step's `heading()` (computed here when not given). `reference` =
+        (positions (B, K, 3), quaternions (B, K, 4)) of K future reference roots in the world
+        (MimicKit's target observation, root only): written before the phase as positions
+        relative to the character's root and rotations, both in its heading frame, so the
+        policy sees where the reference is (drift included), not only when (the phase)."""
         if yaw is None:
             yaw = self.heading()
         if self._out_views[0] is not out:
             b, n = out.shape[0], NUM_LINKS
             rot = out[:, _ROT].reshape(b, n, 4)
+            k = (out.shape[1] - OBS_DIM) // REFERENCE_OBS_WIDTH
+            ref_pos = out[:, OBS_DIM - 1:OBS_DIM - 1 + 3 * k].reshape(b, k, 3)
+            ref_rot = out[:, OBS_DIM - 1 + 3 * k:OBS_DIM - 1 + 7 * k].reshape(b, k, 4)
             self._out_views = (out, out[:, 0], out[:, _POS].reshape(b, n, 3), rot, rot[..., :1],
-                               out[:, _LIN].reshape(b, n, 3), out[:, _ANG].reshape(b, n, 3), out[:, -1])
-        _, out_height, out_pos, out_rot, out_rot_w, out_lin, out_ang, out_phase = self._out_views
+                               out[:, _LIN].reshape(b, n, 3), out[:, _ANG].reshape(b, n, 3), out[:, -1],
+                               ref_pos, ref_rot, ref_rot[..., :1], np.zeros((b, k, 3)), np.zeros((b, k, 1)))
+        (_, out_height, out_pos, out_rot, out_rot_w, out_lin, out_ang, out_phase,
+         out_ref_pos, out_ref_rot, out_ref_w, ref_rel, ref_sign) = self._out_views
         (height, root, com, offset, rel, ang, ang_col, lever_row, outer, outer_flat, lin_at_com, lin,
          left, left_diagonal, half_c, half_s, sign) = self._obs_views
         np.copyto(out_height, height)
@@ -190,6 +218,12 @@ class FeatureExtractor:
         np.matmul(self.quat, left, out=out_rot)
         np.copysign(1.0, out_rot_w, out=sign)
         out_rot *= sign
+        if reference is not None and ref_rel.shape[1]:
+            np.subtract(reference[0], root, out=ref_rel)
+            np.matmul(ref_rel, yaw, out=out_ref_pos)
+            np.matmul(reference[1], left, out=out_ref_rot)
+            np.copysign(1.0, out_ref_w, out=ref_sign)
+            out_ref_rot *= ref_sign
         # cvel is (angular, linear at the subtree centre of mass); move the linear part to
         # each body's origin: v = v_com + w x (p - com), the cross product as a linear map of
         # the outer product w r^T.
@@ -209,20 +243,24 @@ class FeatureExtractor:
         if yaw is None:
             yaw = self.heading()
         sim = self.sim
-        rotations, qvel_rates, root = self._reward_views
+        rotations, qvel_rates, root, root_pos, root_height, ee_height, root_lin_vel = self._reward_views
         np.copyto(rotations, self.qpos.take(self._rot_qpos, axis=1))
         np.copyto(sim.ang_vel, qvel_rates)
         ee = np.subtract(self.pos.take(self._ee, axis=1), root, out=self._ee_rel)
         np.matmul(ee, yaw, out=sim.end_effectors)
+        ee_height += root_height  # DeepMimic: height above the (flat) ground, not below the root
+        np.copyto(sim.root_pos, root_pos)
+        np.copyto(sim.root_lin_vel, root_lin_vel)
+        np.copyto(sim.com_vel, self.com_vel)
         np.copyto(sim.com, self.com)
         return sim
 
     # ------------------------------------------------------------ single-env helpers
-    def observation(self, data: mujoco.MjData, phase: float, out: np.ndarray) -> np.ndarray:
-        """Capture `data` into row 0 of a batch-of-one extractor and return its (197,)
-        observation in `out`."""
+    def observation(self, data: mujoco.MjData, phase: float, out: np.ndarray, reference: tuple | None = None) -> np.ndarray:
+        """Capture `data` into row 0 of a batch-of-one extractor and return its observation
+        in `out`."""
         self.capture(0, data)
-        return self.observations(phase, out if out.ndim == 2 else out.reshape(1, -1))[0]
+        return self.observations(phase, out if out.ndim == 2 else out.reshape(1, -1), reference=reference)[0]
 
     def reward_features_of(self, data: mujoco.MjData) -> RewardFeatures:
         """Capture `data` into row 0 of a batch-of-one extractor; its reward features."""

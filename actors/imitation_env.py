@@ -2,10 +2,13 @@
 
 An episode starts from the reference (FSI: first frame; RSI: a random frame), or from a
 given full state at a given phase (what the ASI server hands out). Each control step sets
-the PD targets, advances MuJoCo `physics_hz / control_hz` substeps, and scores the state
-against the reference with the SFV reward. The episode ends early when the root, chest or
-head touches the ground (switchable), and is truncated at the horizon: 20 s for looped clips,
-the clip's end otherwise.
+the PD targets (by default the reference's plus a residual action), advances MuJoCo
+`physics_hz / control_hz` substeps, and scores the state against the reference with
+DeepMimic's imitation reward (`actors/reward.py`). The episode ends early when a link other
+than those the clip allows on the ground touches it (DeepMimic's rule: every link but the
+feet, `actors/falls.py`; switchable), with reward 0 on that step, and is truncated at the
+horizon: 20 s for looped clips, the clip's end otherwise. The reference's horizontal root is
+re-synchronised to the character's at each new cycle of a looped clip (`actors/root_sync.py`).
 """
 from __future__ import annotations
 
@@ -16,11 +19,14 @@ import mujoco
 import numpy as np
 
 from actors.actions import ActionMapper
-from actors.features import OBS_DIM, FeatureExtractor, update_kinematics
+from actors.falls import FallDetector
+from actors.features import FeatureExtractor, RewardFeatures, observation_dim, update_kinematics
 from actors.humanoid import Humanoid, PhysicsConfig
 from actors.motion import ReferenceMotion
 from actors.reference_track import ReferenceTrack
-from actors.reward import ImitationReward, RewardConfig
+from actors.reference_obs import ReferenceObservation
+from actors.reward import NUM_TERMS, ImitationReward, RewardConfig
+from actors.root_sync import RootSync
 from actors.state import StateLayout
 
 INIT_STRATEGIES = ("fsi", "rsi", "state")
@@ -32,9 +38,22 @@ class EnvConfig:
     physics: PhysicsConfig = field(default_factory=PhysicsConfig, metadata={"help": "MuJoCo model settings (physics rate, friction)"})
     reward: RewardConfig = field(default_factory=RewardConfig, metadata={"help": "reward weights and scales"})
     horizon_s: float = field(default=20.0, metadata={"help": "episode horizon for looped clips (seconds)"})
-    early_termination: bool = field(default=True, metadata={"help": "end the episode when the torso or head touches the ground; off for rolls"})
-    action_parameterisation: str = field(default="axis_angle", metadata={"help": "axis_angle (36-D, the paper's) or exp_map (28-D)"})
+    early_termination: bool = field(default=True, metadata={"help": "end the episode when a link the clip does not allow on the ground touches it (DeepMimic: every link but the feet); off for rolls"})
+    ground_contact_links: tuple[str, ...] | None = field(default=None, metadata={"help": "links besides the feet that may touch the ground without a fall; None: the clip's DeepMimic setting (cartwheel: hands; crawl: limbs; roll, getups: all)"})
+    action_parameterisation: str = field(default="exp_map", metadata={"help": "exp_map (28-D, DeepMimic's current code and MimicKit) or axis_angle (36-D, SFV's, with a dead point at zero)"})
+    residual_action_scale: float | None = field(default=0.5, metadata={"help": "PD target = reference target of the step acted towards + this (rad) x action (dynamic-camera paper eq. 1); None: absolute targets. Walk probe, 1 M samples: eval NR 0.84 with, 2 s episodes without"})
+    sync_root_per_cycle: bool = field(default=True, metadata={"help": "move the reference's horizontal root to the character's at each new cycle of a looped clip (DeepMimic sync_char_root_pos)"})
+    zero_reward_on_fall: bool = field(default=True, metadata={"help": "the step that ends in a fall earns 0, so falling never pays"})
     init: str = field(default="rsi", metadata={"help": "start of an episode when reset() is given no state: fsi or rsi"})
+    reference_obs_steps: tuple[int, ...] = field(default=(), metadata={"help": "control steps ahead at which the policy also observes the reference root (position and rotation in its heading frame, drift included; MimicKit tar_obs_steps); () for SFV's observation"})
+    state_space: str = field(default="rotvec", metadata={"help": "coordinates of the initial-state vectors ASI learns a Gaussian over: rotvec (rotations as rotation vectors, 66-D) or qpos (SFV's raw qpos[2:] + qvel, 75-D, quaternion entries perturbed one by one)"})
+
+    def __post_init__(self):
+        if self.ground_contact_links is not None:
+            object.__setattr__(self, "ground_contact_links", tuple(self.ground_contact_links))
+        object.__setattr__(self, "reference_obs_steps", tuple(int(k) for k in self.reference_obs_steps))
+        if any(k < 0 for k in self.reference_obs_steps):
+            raise ValueError(f"reference_obs_steps must be >= 0, got {self.reference_obs_steps}")
 
     @property
     def substeps(self) -> int:
@@ -55,29 +74,34 @@ class ImitationEnv(gym.Env):
         self.data = mujoco.MjData(self.model)
         self.substeps = config.substeps
         self.track = track or ReferenceTrack(motion, self.humanoid, 1.0 / config.control_hz, config.horizon_s)
-        self.layout = StateLayout(self.humanoid)
+        self.layout = StateLayout(self.humanoid, config.state_space)
         self.features = FeatureExtractor(self.humanoid)
-        self.actions = ActionMapper(config.action_parameterisation)
-        self.reward_fn = ImitationReward(config.reward)
+        self.actions = ActionMapper(config.action_parameterisation, config.residual_action_scale)
+        self.reward_fn = ImitationReward(config.reward, self.humanoid.joint_dof_adr)
         self.max_reward = config.reward.max_reward
-        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (OBS_DIM,), np.float32)
+        self.obs_dim = observation_dim(len(config.reference_obs_steps))
+        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self.obs_dim,), np.float32)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
         self.state_dim = self.layout.state_dim
         # Per-step buffers: the hot path writes into these instead of allocating.
         self._ctrl = self.data.ctrl.reshape(1, -1)  # one view kept: MjData hands out a new array per access
-        self._obs = np.zeros((1, OBS_DIM), dtype=np.float64)
-        self._fall_mask = np.zeros(self.model.ngeom, dtype=bool)
-        self._fall_mask[self.humanoid.fall_geom_ids] = True
+        self._obs = np.zeros((1, self.obs_dim), dtype=np.float64)
+        self.fall_detector = FallDetector.for_clip(self.humanoid, motion.name, config.ground_contact_links)
+        self.root_sync = RootSync(self.track, 1, config.sync_root_per_cycle)
+        self.reference_obs = ReferenceObservation(self.track, 1, config.reference_obs_steps)
+        self._row_buf = np.zeros(1, dtype=np.int64)
         # MuJoCo resets MjData by itself when the simulation blows up (bad qpos / qvel / qacc)
         # and only counts a warning: a view of those three counters (mj_resetData clears them).
         first_bad = int(mujoco.mjtWarning.mjWARN_BADQPOS)
         assert (int(mujoco.mjtWarning.mjWARN_BADQVEL), int(mujoco.mjtWarning.mjWARN_BADQACC)) == (first_bad + 1, first_bad + 2)
         self._divergence_warnings = self.data.warning.number[first_bad : first_bad + 3]
-        self.reward_terms = np.zeros(4)
-        self._terms = self.reward_terms.reshape(1, 4)  # the same numbers, as a batch of one
+        self.reward_terms = np.zeros(NUM_TERMS)
+        self._terms = self.reward_terms.reshape(1, NUM_TERMS)  # the same numbers, as a batch of one
+        self._reference = RewardFeatures.zeros(self.model.nv, 1)  # this step's reference row, shifted by the root sync
         self._start = 0
         self._step = 0
         self._max_steps = 1
+        self.horizon_cap_steps: int | None = None  # an episode-length curriculum's current limit
 
     # ------------------------------------------------------------------------ reset
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -95,6 +119,8 @@ class ImitationEnv(gym.Env):
             start = self.track.start_index(float(options.get("phase", 0.0)))
         self._start, self._step = start, 0
         self._max_steps = self.track.episode_steps(start)
+        if self.horizon_cap_steps is not None:  # a curriculum's limit truncates (the value bootstraps), never terminates
+            self._max_steps = max(1, min(self._max_steps, self.horizon_cap_steps))
         mujoco.mj_resetData(self.model, self.data)
         if init == "state":
             state = np.asarray(options["state"], dtype=np.float64)
@@ -106,20 +132,30 @@ class ImitationEnv(gym.Env):
             self.data.qvel[:] = self.track.qvel[start]
         # Hold the current pose as the first PD target so the first substeps do not jerk.
         update_kinematics(self.model, self.data)
+        self.root_sync.reset(0, self.data.qpos[:2], start)
         self.data.ctrl[:] = self.data.actuator_length if self.model.nu else 0.0
         return self._observation(), {"phase": float(self.track.phase[start]), "start_step": start}
 
     # ------------------------------------------------------------------------- step
+    def reference_targets(self, row: int) -> np.ndarray:
+        """(1, 28) PD targets of the reference at `row` (what residual actions add to)."""
+        return self.track.ctrl[row:row + 1]
+
     def step(self, action):
-        self.actions.targets_batch(np.asarray(action).reshape(1, -1), self._ctrl)
+        self.actions.targets_batch(np.asarray(action).reshape(1, -1), self._ctrl, self.reference_targets(self.row + 1))
         fell, diverged = self.simulate()
         features = self.features
         features.capture(0, self.data)
         yaw = features.heading()
         row = self.row
-        reward = 0.0 if diverged else float(self.reward_fn.batch(features.reward_features(yaw), self.track.reward_features(row), self._terms)[0])
+        self._row_buf[0] = row
+        ref = self.track.features.take(self._row_buf, self._reference)
+        self.root_sync.apply(self._row_buf, features.pos[:, 0, :2], ref)
+        reward = float(self.reward_fn.batch(features.reward_features(yaw), ref, self._terms)[0])
+        if diverged or (fell and self.config.zero_reward_on_fall):
+            reward = 0.0
         terminated, truncated = self.ending(fell, diverged)
-        obs = features.observations(self.track.phase[row], self._obs, yaw)[0]
+        obs = features.observations(self.track.phase[row], self._obs, yaw, self.reference_obs.gather(self._row_buf, self.root_sync.offset))[0]
         return obs.astype(np.float32), reward, terminated, truncated, {}
 
     def simulate(self) -> tuple[bool, bool]:
@@ -134,7 +170,7 @@ class ImitationEnv(gym.Env):
         # episode as a fall rather than carry on from a teleported state.
         warnings = self._divergence_warnings
         diverged = bool(warnings[0] or warnings[1] or warnings[2])  # cheaper than .any() on 3 ints
-        fell = self.config.early_termination and self._fallen()
+        fell = self.config.early_termination and self.fall_detector(self.data)
         return fell, diverged
 
     def ending(self, fell: bool, diverged: bool) -> tuple[bool, bool]:
@@ -175,15 +211,14 @@ class ImitationEnv(gym.Env):
 
     # --------------------------------------------------------------------- internals
     def _observation(self) -> np.ndarray:
-        return self.features.observation(self.data, self.track.phase[self.row], self._obs).astype(np.float32)
+        return self._observe().astype(np.float32)
 
     def observation_into(self, out: np.ndarray) -> np.ndarray:
         """Write the observation into a caller's (float32) row."""
-        out[:] = self.features.observation(self.data, self.track.phase[self.row], self._obs)
+        out[:] = self._observe()
         return out
 
-    def _fallen(self) -> bool:
-        ncon = self.data.ncon
-        if ncon == 0:
-            return False
-        return bool(self._fall_mask[self.data.contact.geom].any())
+    def _observe(self) -> np.ndarray:
+        self._row_buf[0] = self.row
+        reference = self.reference_obs.gather(self._row_buf, self.root_sync.offset)
+        return self.features.observation(self.data, self.track.phase[self.row], self._obs, reference)

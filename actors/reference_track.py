@@ -2,7 +2,8 @@
 
 Episodes start on the control-step grid (k0 * dt), so the reference at every step of every
 episode is a row of this table. Each row holds the reference's qpos / qvel (to start an
-episode on it) and the reward's kinematic features, computed once with MuJoCo itself on a
+episode on it), its PD targets (the actuator lengths of the reference pose, what residual
+actions add to) and the reward's kinematic features, computed once with MuJoCo itself on a
 scratch MjData, so the reward compares like with like.
 """
 from __future__ import annotations
@@ -40,6 +41,7 @@ class ReferenceTrack:
         self.qpos = np.zeros((rows, model.nq))
         self.qvel = np.zeros((rows, model.nv))
         self.features = RewardFeatures.zeros(model.nv, rows)
+        self.ctrl = np.zeros((rows, model.nu))
         scratch = mujoco.MjData(model)
         features = FeatureExtractor(humanoid)
         poses = motion.sample(times)
@@ -49,6 +51,8 @@ class ReferenceTrack:
             scratch.qpos[:] = self.qpos[k]
             scratch.qvel[:] = self.qvel[k]
             update_kinematics(model, scratch)
+            mujoco.mj_transmission(model, scratch)  # actuator_length: the pose as PD targets
+            self.ctrl[k] = scratch.actuator_length
             self.features.values[k] = features.reward_features_of(scratch).values[0]
         self._rows = [self.features.slice(slice(k, k + 1)) for k in range(rows)]  # views, built once
 

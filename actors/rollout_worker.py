@@ -23,7 +23,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from actors.errors import SfvError
-from actors.features import OBS_DIM
 from actors.imitation_env import EnvConfig
 from actors.initial_states import BufferedStarts, InitialStates, ReferenceStarts
 from actors.motion import ReferenceMotion
@@ -116,9 +115,11 @@ class RolloutWorker:
         """This worker's process id (a restarted Ray actor gets a new one)."""
         return os.getpid()
 
-    def sample(self, weights: dict, policy_version: int, steps: int) -> dict[str, np.ndarray]:
-        """Roll all envs forward `steps` control steps with the given policy weights."""
+    def sample(self, weights: dict, policy_version: int, steps: int, horizon_s: float | None = None) -> dict[str, np.ndarray]:
+        """Roll all envs forward `steps` control steps with the given policy weights;
+        `horizon_s` caps the episodes that start during this call (a curriculum)."""
         t0 = time.perf_counter()
+        self.env.set_horizon(horizon_s)
         if self.policy is None:
             self.policy = NumpyPolicy(weights, max_batch=self.spec.num_envs)
         elif weights is not self._weights:  # in-process callers may hand the same dict again
@@ -129,8 +130,8 @@ class RolloutWorker:
             env.reset()
             self._started = True
         batch = {
-            "obs": np.empty((steps, m, OBS_DIM), np.float32),
-            "next_obs": np.empty((steps, m, OBS_DIM), np.float32),
+            "obs": np.empty((steps, m, env.obs_dim), np.float32),
+            "next_obs": np.empty((steps, m, env.obs_dim), np.float32),
             "actions": np.empty((steps, m, env.action_dim), np.float32),
             "logp": np.empty((steps, m), np.float32),
             "rewards": np.empty((steps, m), np.float32),

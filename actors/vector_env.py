@@ -11,12 +11,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from actors.features import OBS_DIM, FeatureExtractor, RewardFeatures
+from actors.features import FeatureExtractor, RewardFeatures
 from actors.humanoid import Humanoid
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.initial_states import BufferedStarts
 from actors.motion import ReferenceMotion
 from actors.reference_track import ReferenceTrack
+from actors.reference_obs import ReferenceObservation
+from actors.reward import NUM_TERMS
+from actors.root_sync import RootSync
 
 
 @dataclass
@@ -52,8 +55,9 @@ class VectorImitationEnv:
         self.gamma = gamma
         self.action_dim = self.envs[0].action_space.shape[0]
         self.state_dim = self.envs[0].state_dim
-        self.obs = np.zeros((num_envs, OBS_DIM), dtype=np.float32)
-        self.final_obs = np.zeros((num_envs, OBS_DIM), dtype=np.float32)
+        self.obs_dim = obs_dim = self.envs[0].obs_dim
+        self.obs = np.zeros((num_envs, obs_dim), dtype=np.float32)
+        self.final_obs = np.zeros((num_envs, obs_dim), dtype=np.float32)
         self.rewards = np.zeros(num_envs, dtype=np.float32)
         self.terminated = np.zeros(num_envs, dtype=bool)
         self.truncated = np.zeros(num_envs, dtype=bool)
@@ -73,13 +77,25 @@ class VectorImitationEnv:
         self.actions = first.actions
         self.reward_fn = first.reward_fn
         self.early_termination = config.early_termination
+        self.zero_reward_on_fall = config.zero_reward_on_fall
+        self.root_sync = RootSync(track, num_envs, config.sync_root_per_cycle)
         self._targets = np.zeros((num_envs, first.model.nu))
-        self._rows = np.zeros(num_envs, dtype=np.int64)
+        self._base = np.zeros((num_envs, first.model.nu))  # each env's reference targets for residual actions
+        self._rows = np.zeros(num_envs, dtype=np.int64)  # each env's current reference row
+        self._next_rows = np.zeros(num_envs, dtype=np.int64)
         self._reference = RewardFeatures.zeros(first.model.nv, num_envs)  # each env's reference row, per step
         self._fell = np.zeros(num_envs, dtype=bool)
         self._diverged = np.zeros(num_envs, dtype=bool)
-        self._terms = np.zeros((num_envs, 4))
-        self._obs64 = np.zeros((num_envs, OBS_DIM))
+        self._terms = np.zeros((num_envs, NUM_TERMS))
+        self._obs64 = np.zeros((num_envs, obs_dim))
+        self.reference_obs = ReferenceObservation(track, num_envs, config.reference_obs_steps)
+
+    def set_horizon(self, seconds: float | None) -> None:
+        """Cap the length of episodes that start from now on (an episode-length curriculum);
+        None lifts the cap. Running episodes keep the limit they started with."""
+        cap = None if seconds is None else max(1, int(round(seconds * self.envs[0].config.control_hz)))
+        for env in self.envs:
+            env.horizon_cap_steps = cap
 
     def reset(self) -> np.ndarray:
         for i in range(self.num_envs):
@@ -95,6 +111,8 @@ class VectorImitationEnv:
         seed = None if self._seeded else self._seed + i
         env.reset(seed=seed, options=options)
         env.observation_into(self.obs[i])
+        self._rows[i] = env.row
+        self.root_sync.reset(i, env.data.qpos[:2], env.row)
         self._init_state[i] = env.state_vector()
         self._component[i] = component
         self._ret[i] = self._disc[i] = 0.0
@@ -110,7 +128,11 @@ class VectorImitationEnv:
         (the true successor, for bootstrapping a truncated episode); `obs[i]` is the new
         episode's first observation then.
         """
-        targets = self.actions.targets_batch(actions, self._targets)
+        base = None
+        if self.actions.residual:
+            np.add(self._rows, 1, out=self._next_rows)
+            base = np.take(self.track.ctrl, self._next_rows, axis=0, out=self._base)
+        targets = self.actions.targets_batch(actions, self._targets, base)
         features = self.features
         for i, env in enumerate(self.envs):
             env.data.ctrl[:] = targets[i]
@@ -119,10 +141,14 @@ class VectorImitationEnv:
             self._rows[i] = env.row
         track = self.track
         yaw = features.heading()
-        rewards = self.reward_fn.batch(features.reward_features(yaw), track.features.take(self._rows, self._reference), self._terms)
+        reference = track.features.take(self._rows, self._reference)
+        self.root_sync.apply(self._rows, features.pos[:, 0, :2], reference)
+        rewards = self.reward_fn.batch(features.reward_features(yaw), reference, self._terms)
         rewards[self._diverged] = 0.0
+        if self.zero_reward_on_fall:
+            rewards[self._fell] = 0.0
         self.rewards[:] = rewards
-        features.observations(track.phase[self._rows], self._obs64, yaw)
+        features.observations(track.phase[self._rows], self._obs64, yaw, self.reference_obs.gather(self._rows, self.root_sync.offset))
         self.final_obs[:] = self._obs64
         self._ret += rewards
         self._disc += self._discount * rewards

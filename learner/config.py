@@ -80,6 +80,10 @@ class PPOConfig:
     max_grad_norm: float | None = field(
         default=1.0, metadata={"help": "clip each network's gradient to this global L2 norm; None disables"}
     )
+    reward_max: float | None = field(
+        default=1.0,
+        metadata={"help": "rewards lie in [0, reward_max]: value targets are clipped to [0, reward_max / (1 - gamma)] (DeepMimic); sfv train sets it to the env reward's maximum; None disables"},
+    )
     obs_clip: float = field(default=10.0, metadata={"help": "clip normalised observations to +-obs_clip"})
     normalizer_max_samples: int = field(
         default=1_000_000,
@@ -106,6 +110,8 @@ class PPOConfig:
         for name in ("clip_coef", "action_std", "obs_clip", "policy_lr", "value_lr", "adv_clip", "action_bound"):
             if not getattr(self, name) > 0.0:
                 problems.append(f"{name} must be > 0")
+        if self.reward_max is not None and not self.reward_max > 0.0:
+            problems.append("reward_max must be > 0 (or None)")
         if any(h < 1 for h in self.policy_hidden + self.value_hidden):
             problems.append("hidden layer sizes must be >= 1")
         if problems:

@@ -197,6 +197,8 @@ class PPOLearner:
         value_targets = td_lambda_returns(arrays["rewards"], next_values, *flags, cfg.gamma, cfg.td_lambda).ravel()
         _require_finite(advantages, "GAE advantages")
         _require_finite(value_targets, "TD(lambda) value targets")
+        if cfg.reward_max is not None:  # DeepMimic's val_min / val_max: a return lies in [0, r_max / (1 - gamma)]
+            np.clip(value_targets, 0.0, cfg.reward_max / max(1.0 - cfg.gamma, 1e-8), out=value_targets)
         if cfg.norm_adv and advantages.size > 1:
             advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
             advantages = np.clip(advantages, -cfg.adv_clip, cfg.adv_clip)

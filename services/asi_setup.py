@@ -59,8 +59,13 @@ class ASIConnection:
 
     def create_job(self, reference_states: np.ndarray, reference_phases: np.ndarray):
         c = self.config
+        stds = None
+        if c.asi_initial_std_scale != 1.0:  # 1.0: the server's default, the paper's clip std
+            from services.asi.distribution import reference_std
+
+            stds = np.maximum(c.asi_initial_std_scale * reference_std(np.asarray(reference_states, np.float64), 1e-3), 1e-3)
         return self.client.create_job(
-            reference_states, reference_phases, num_components=c.asi_components,
+            reference_states, reference_phases, num_components=c.asi_components, initial_stds=stds,
             step_size=c.asi_step_size, episodes_per_update=c.asi_episodes_per_update,
         )
 

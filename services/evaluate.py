@@ -1,22 +1,68 @@
-"""Evaluate a trained policy: normalised return as SFV defines it, episode length, fall rate.
+"""Evaluate a trained policy the same strict way everywhere (`sfv eval`, and during training).
 
-The normalised return of an episode is its return over the maximum possible return of that
-episode (reward 1 at every control step up to the horizon), so it lies in [0, 1]; early
-termination forfeits the rest. The policy acts deterministically (its mean). The policy can
-come from a run directory (newest checkpoint) or from an exported ONNX file alone.
+Episodes. The policy acts deterministically (its mean). Episode k of E starts at phase k / E
+of the clip (the nearest row of the clip's start grid), from the reference's full state there
+(pose and velocities, as FSI does at phase 0), so E episodes cover the clip evenly and the
+same E episodes are played every time. Each episode runs to the horizon (20 s for looped
+clips, the clip's end otherwise) unless the character falls or the simulation diverges.
+
+Falls. Whatever the environment's own termination setting (training may run with early
+termination off, or with a looser rule), the environment is stepped with early termination
+off and the clip's *strict* fall rule is checked after every control step
+(`FallDetector.for_clip(..., strict=True)`: DeepMimic's contact rule, every link but the feet
+and the links the clip allows such as the cartwheel's hands, plus a pelvis-height floor of
+`actors.falls.MIN_ROOT_HEIGHT`). A strict fall ends the episode (its step earns 0 when the
+env's `zero_reward_on_fall` is set); a divergence (MuJoCo reset its state) ends it as a fall.
+A policy that kneels, sits or lies still is counted as fallen even when training let it go on.
+
+Figures (one dict):
+- normalized_return: the episode's return over the most it could earn (env.max_reward at each
+  of its env.max_episode_steps steps), so in [0, 1], a fall forfeiting the rest; the mean over
+  episodes, with normalized_return_std.
+- fall_rate: fraction of episodes ended by a strict fall or a divergence (divergences: count).
+- episode_length (control steps) and episode_seconds: mean survival time.
+- joint_rotation_error_rad: mean over every evaluated step and the 12 joints of the angle
+  between the character's and the reference's local joint rotation (ball joints 2 acos|<q, q*>|,
+  hinges the absolute angle gap); the root's orientation is not a joint.
+- end_effector_error_m: mean over steps and the 4 end effectors (ankles, wrists) of the
+  distance between the character's and the reference's end-effector positions in each one's
+  heading frame (horizontal offset from the root, height above the ground: the reward's).
+- distance_ratio (looped clips that travel, >= 5 cm a cycle; else None): the character's
+  horizontal root displacement from start to end of each episode over the reference's over the
+  same steps, each summed over episodes (1: it travelled as far as the clip; standing still: 0).
+- episodes; with pushes: pushes, push_impulse_ns, push_duration_s, push_episodes, push_survival_rate.
+
+Pushes (`pushes=N`, `sfv eval --push N`; the render's push code, `services/render/pushes.py`):
+each push is an impulse of `push_impulse` N s (default 40 N s: a 45 kg character's speed changes
+by ~0.9 m/s) applied to the root (pelvis) body as a constant horizontal force J / T for
+T = `push_duration_s` (0.1 s, rounded to whole control steps: 3 at 30 Hz), in a direction drawn
+uniformly on the horizontal circle. Timing is spread evenly over the episode: the span after a
+0.5 s settling time and before the last `PUSH_RECOVERY_S` (1 s) is cut into N equal slots and
+each push starts at a random control step of its slot. Directions and start steps come from
+`np.random.default_rng(seed + k)` for episode k, so an evaluation is reproducible.
+push_survival_rate is the fraction of the episodes long enough to hold all N pushes
+(push_episodes of them) that reached their end without a strict fall (None if none was).
 """
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
 from pathlib import Path
 
 import numpy as np
 
 from actors.errors import SfvError
+from actors.falls import FallDetector
+from actors.features import NUM_REWARD_QUATS, RewardFeatures
 from actors.imitation_env import ImitationEnv
-from actors.motion_io import load_motion
 from services.run_dir import CONFIG_FILE
 from services.train_config import TrainConfig
+
+DEFAULT_EPISODES = 32  # sfv eval
+PUSH_RECOVERY_S = 1.0  # no push starts later than this before an episode's end
+TRAVEL_M = 0.05  # a looped clip whose root moves less than this per cycle has no distance_ratio
+_NUM_JOINTS = NUM_REWARD_QUATS - 1 + 4  # 8 ball joints + 4 hinges (the root's orientation is not a joint)
 
 
 def load_run(run_dir: str | Path) -> tuple[TrainConfig, dict]:
@@ -40,65 +86,227 @@ def load_run(run_dir: str | Path) -> tuple[TrainConfig, dict]:
     return config, weights
 
 
-def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, init: str = "rsi") -> dict:
-    """Run `episodes` deterministic episodes; `policy.act(obs[None], deterministic=True)`."""
-    returns, lengths, falls = [], [], []
+# ------------------------------------------------------------------------------ metrics
+def tracking_errors(sim: RewardFeatures, ref: RewardFeatures) -> tuple[np.ndarray, np.ndarray]:
+    """Per row: (mean joint rotation error over the 12 joints in rad, mean end-effector
+    distance over the 4 end effectors in m) between two equally long feature batches.
+
+    Ball joints: the angle of q*^-1 q, 2 acos|<q, q*>|; hinges: |angle gap| wrapped to [0, pi].
+    End effectors: Euclidean distance of the heading-frame positions."""
+    dot = np.abs(np.vecdot(sim.quats[:, 1:], ref.quats[:, 1:]))  # (B, 8): the ball joints, root excluded
+    ball = 2.0 * np.arccos(np.minimum(dot, 1.0))
+    gap = np.abs(np.remainder(sim.hinges - ref.hinges + np.pi, 2.0 * np.pi) - np.pi)  # (B, 4)
+    rotation = (ball.sum(axis=1) + gap.sum(axis=1)) / _NUM_JOINTS
+    end_effector = np.linalg.norm(sim.end_effectors - ref.end_effectors, axis=-1).mean(axis=1)
+    return rotation, end_effector
+
+
+def start_phases(episodes: int) -> np.ndarray:
+    """Episode k of `episodes` starts at phase k / episodes (evenly spaced over the clip)."""
+    return np.arange(episodes) / episodes
+
+
+def strict_fall_detector(env: ImitationEnv) -> FallDetector:
+    """The clip's strict fall rule (contacts + pelvis floor) for this env's humanoid."""
+    return FallDetector.for_clip(env.humanoid, env.motion.name, env.config.ground_contact_links, strict=True)
+
+
+def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pushes: int = 0,
+                    push_impulse: float | None = None, push_duration_s: float | None = None,
+                    init: str | None = None) -> dict:
+    """Run `episodes` deterministic episodes of `policy` (its `mean(obs (1, obs_dim))` when it has
+    one, else `act(obs, deterministic=True)`) on `env`; the figures of this module's docstring.
+
+    Episode k starts at phase k / episodes from the reference state; `init` ("fsi" / "rsi")
+    instead resets episode k with seed + k and that strategy (how `sfv render` and
+    `sfv export` play their episodes). Strict falls are always counted: the env runs with
+    early termination off for the duration of the call (its config is restored after).
+    `pushes` > 0 pushes the root `pushes` times an episode (impulse `push_impulse` N s, default
+    40, over `push_duration_s`, default 0.1 s)."""
+    if episodes <= 0:
+        raise SfvError(f"evaluate: episodes must be positive, got {episodes}")
+    if pushes < 0:
+        raise SfvError(f"evaluate: pushes must be >= 0, got {pushes}")
+    schedule_config = None
+    if pushes:
+        from services.render.pushes import PushConfig, PushSchedule, apply_push
+
+        defaults = PushConfig()
+        schedule_config = PushConfig(count=pushes, impulse=defaults.impulse if push_impulse is None else float(push_impulse),
+                                     duration_s=defaults.duration_s if push_duration_s is None else float(push_duration_s))
+        if not (math.isfinite(schedule_config.impulse) and schedule_config.impulse >= 0):
+            raise SfvError(f"evaluate: push impulse must be a finite number >= 0, got {schedule_config.impulse}")
+        if not (math.isfinite(schedule_config.duration_s) and schedule_config.duration_s > 0):
+            raise SfvError(f"evaluate: push duration must be positive, got {schedule_config.duration_s}")
+    hz = env.config.control_hz
+    recovery_steps = int(round(PUSH_RECOVERY_S * hz))
+    detector = strict_fall_detector(env)
+    data, track = env.data, env.track
+    root_body = int(env.humanoid.body_ids[0])
+    zero_on_fall = env.config.zero_reward_on_fall
+    phases = start_phases(episodes)
+    # Buffers made once: each step copies the character's reward features into a row.
+    capacity = max(track.horizon_steps, track.start_steps) + 1
+    sim_rows = np.empty((capacity, env.features.sim.values.shape[1]))
+    ref_rows = np.empty(capacity, dtype=np.int64)
+    sim_values = env.features.sim.values[0]  # written by every env.step
     obs_row = np.zeros((1, env.observation_space.shape[0]), np.float32)
-    for episode in range(episodes):
-        obs, _ = env.reset(seed=seed + episode, options={"init": init})
-        obs_row[0] = obs
-        total, steps, fell = 0.0, 0, False
-        while True:
-            action, _ = policy.act(obs_row, deterministic=True)
-            obs, reward, terminated, truncated, _ = env.step(action[0])
+    # The deterministic action is the policy's mean: NumpyPolicy / OnnxPolicy.mean skips act()'s
+    # log-density (~10 % of an evaluation step); other policies answer act(deterministic=True).
+    mean = getattr(policy, "mean", None)
+    if not callable(mean):
+        mean = None
+        act = policy.act
+
+    returns, lengths, falls = np.zeros(episodes), np.zeros(episodes), np.zeros(episodes, dtype=bool)
+    divergences = 0
+    rotation_sum = end_effector_sum = 0.0
+    error_steps = 0
+    sim_distance = ref_distance = 0.0
+    push_episodes = push_survivors = 0
+    saved_config = env.config
+    env.config = dataclasses.replace(saved_config, early_termination=False)  # falls are ours to judge
+    try:
+        for k in range(episodes):
+            options = {"init": init} if init is not None else {"init": "rsi", "phase": float(phases[k])}
+            obs, _ = env.reset(seed=seed + k, options=options)
             obs_row[0] = obs
-            total += reward
-            steps += 1
-            if terminated or truncated:
-                fell = bool(terminated)
-                break
-        returns.append(total / (env.max_reward * env.max_episode_steps))
-        lengths.append(steps)
-        falls.append(fell)
-    return {
-        "normalized_return": float(np.mean(returns)),
-        "normalized_return_std": float(np.std(returns)),
-        "episode_length": float(np.mean(lengths)),
-        "episode_seconds": float(np.mean(lengths)) / env.config.control_hz,
-        "fall_rate": float(np.mean(falls)),
-        "episodes": episodes,
+            start_row = env.row
+            limit = env.max_episode_steps
+            schedule = None
+            if schedule_config is not None:
+                schedule = PushSchedule(schedule_config, hz, max(0, limit - recovery_steps), np.random.default_rng(seed + k))
+            total, steps, recorded, fell, diverged = 0.0, 0, 0, False, False
+            while steps < limit:
+                if schedule is not None:
+                    apply_push(data, root_body, schedule, steps)
+                action = mean(obs_row) if mean is not None else act(obs_row, deterministic=True)[0]
+                obs, reward, terminated, truncated, _ = env.step(action[0])
+                steps += 1
+                if terminated:  # early termination is off: only a divergence ends an episode here
+                    diverged = True
+                    break
+                sim_rows[recorded] = sim_values
+                ref_rows[recorded] = env.row
+                recorded += 1
+                if detector(data):
+                    fell = True
+                    total += 0.0 if zero_on_fall else reward
+                    break
+                total += reward
+                if truncated:
+                    break
+                obs_row[0] = obs
+            if schedule is not None:
+                apply_push(data, root_body, None, 0)  # no force left behind
+                if len(schedule.starts) == pushes:
+                    push_episodes += 1
+                    push_survivors += not (fell or diverged)
+            returns[k] = total / (env.max_reward * limit)
+            lengths[k] = steps
+            falls[k] = fell or diverged
+            divergences += diverged
+            if recorded:
+                sim = RewardFeatures(sim_rows[:recorded])
+                ref = track.features.take(ref_rows[:recorded])
+                rotation, end_effector = tracking_errors(sim, ref)
+                rotation_sum += float(rotation.sum())
+                end_effector_sum += float(end_effector.sum())
+                error_steps += recorded
+                if track.motion.loop:
+                    sim_distance += float(np.linalg.norm(sim.root_xy[-1] - track.qpos[start_row, :2]))
+                    ref_distance += float(np.linalg.norm(track.qpos[ref_rows[recorded - 1], :2] - track.qpos[start_row, :2]))
+    finally:
+        env.config = saved_config
+    mean_length = float(lengths.mean())
+    # Only for clips that travel: a looped clip moving its root at least TRAVEL_M per cycle.
+    travels = track.motion.loop and float(np.linalg.norm(track.motion.cycle_offset[:2])) >= TRAVEL_M
+    result = {
+        "normalized_return": float(returns.mean()),
+        "normalized_return_std": float(returns.std()),
+        "fall_rate": float(falls.mean()),
+        "episode_length": mean_length,
+        "episode_seconds": mean_length / hz,
+        "joint_rotation_error_rad": rotation_sum / error_steps if error_steps else None,
+        "end_effector_error_m": end_effector_sum / error_steps if error_steps else None,
+        "distance_ratio": sim_distance / ref_distance if travels and ref_distance > 0 else None,
+        "divergences": int(divergences),
+        "episodes": int(episodes),
     }
+    if schedule_config is not None:
+        result.update(pushes=int(pushes), push_impulse_ns=schedule_config.impulse, push_duration_s=schedule_config.duration_s,
+                      push_episodes=int(push_episodes),
+                      push_survival_rate=push_survivors / push_episodes if push_episodes else None)
+    return result
 
 
-def make_policy(run_dir: str | Path | None, onnx: str | Path | None, weights: dict | None):
-    if onnx is not None:
-        from learner.onnx_export import OnnxPolicy
-
-        return OnnxPolicy(onnx)
-    from actors.policy import NumpyPolicy
-
-    return NumpyPolicy(weights, max_batch=1)
+# --------------------------------------------------------------------------- runs / CLI
+def make_eval_env(motion, env_config) -> ImitationEnv:
+    """An env for evaluation: the training settings with early termination off (the strict
+    fall rule is applied by `evaluate_policy`)."""
+    return ImitationEnv(motion, dataclasses.replace(env_config, early_termination=False))
 
 
-def evaluate_run(run_dir: str | Path, episodes: int = 10, seed: int = 0, init: str = "rsi", onnx: str | None = None, motion: str | None = None) -> dict:
-    if onnx is not None and run_dir is None:
-        if motion is None:
-            raise SfvError(f"{onnx}: evaluating an ONNX policy alone needs --motion")
-        from services.train_config import TrainConfig
-
-        config, weights = TrainConfig(motion=motion), None
-    elif onnx is not None:
-        # The run only supplies the env settings: read config.json, not the (torch) checkpoint.
-        from services.export.policy_source import read_run_config
-
-        config, weights = read_run_config(run_dir), None
-    else:
-        config, weights = load_run(run_dir)
+def evaluate_run(run_dir: str | Path | None, episodes: int = DEFAULT_EPISODES, seed: int = 0, onnx: str | None = None,
+                 motion: str | None = None, pushes: int = 0, push_impulse: float | None = None,
+                 push_duration_s: float | None = None) -> dict:
+    """Evaluate a run's newest checkpoint (or an exported ONNX policy) on its motion (or `motion`)."""
     from threadpoolctl import threadpool_limits
 
-    threadpool_limits(1, user_api="blas")  # batch-1 inference: BLAS threads only spin
-    env = ImitationEnv(load_motion(motion or config.motion), config.env)
-    policy = make_policy(run_dir, onnx, weights)
-    result = evaluate_policy(policy, env, episodes, seed, init)
-    result.update(motion=env.motion.name, init=init)
+    from actors.motion_io import load_motion
+    from services.export.policy_source import load_policy_source
+
+    source = load_policy_source(run_dir, onnx, motion)
+    env = make_eval_env(load_motion(source.motion), source.env_config)
+    with threadpool_limits(1, user_api="blas"):  # batch-1 inference: BLAS threads only spin
+        result = evaluate_policy(source.policy, env, episodes, seed, pushes, push_impulse, push_duration_s)
+    result.update(motion=env.motion.name, policy=source.description)
     return result
+
+
+class TrainingEvaluator:
+    """The periodic evaluation of `sfv train`: every `eval_every` samples and at the end, the
+    current policy on `eval_episodes` strict episodes; figures as `eval/...` metrics."""
+
+    KEYS = ("normalized_return", "normalized_return_std", "fall_rate", "episode_length", "episode_seconds",
+            "joint_rotation_error_rad", "end_effector_error_m", "distance_ratio", "episodes")
+
+    def __init__(self, config: TrainConfig):
+        self.config = config
+        self.every = int(config.eval_every)
+        self.episodes = int(config.eval_episodes)
+        self._env: ImitationEnv | None = None
+        self._policy = None
+
+    def due(self, samples_before: int, samples_after: int, last: bool) -> bool:
+        """A multiple of eval_every was crossed in this iteration, or it is the last one."""
+        if self.every <= 0:
+            return False
+        return last or samples_after // self.every > samples_before // self.every
+
+    def __call__(self, weights: dict) -> dict:
+        import time
+
+        from threadpoolctl import threadpool_limits
+
+        from actors.motion_io import load_motion
+        from actors.policy import NumpyPolicy
+
+        if self._env is None:
+            self._env = make_eval_env(load_motion(self.config.motion), self.config.env)
+        if self._policy is None:
+            self._policy = NumpyPolicy(weights, max_batch=1)
+        else:
+            self._policy.load_weights(weights)
+        started = time.perf_counter()
+        with threadpool_limits(1, user_api="blas"):  # restored on exit: the learner keeps its threads
+            result = evaluate_policy(self._policy, self._env, self.episodes, self.config.seed)
+        figures = {f"eval/{key}": result[key] for key in self.KEYS}
+        figures["eval/seconds"] = time.perf_counter() - started
+        return figures
+
+    @staticmethod
+    def summary(samples: int, figures: dict) -> str:
+        return (f"eval @ {samples:,} samples: normalised return {figures['eval/normalized_return']:.3f}, "
+                f"fall rate {figures['eval/fall_rate']:.2f} ({figures['eval/episodes']} episodes, "
+                f"{figures['eval/episode_seconds']:.1f} s survived, {figures['eval/seconds']:.1f} s to evaluate)")

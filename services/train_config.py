@@ -30,6 +30,7 @@ class TrainConfig:
     asi_outage_s: float = field(default=30.0, metadata={"help": "seconds a worker keeps retrying an unreachable ASI server for starts before training stops"})
     asi_components: int = field(default=10, metadata={"help": "k, Gaussian components of the ASI distribution"})
     asi_episodes_per_update: int = field(default=2000, metadata={"help": "episodes reported per ASI gradient step (paper: 2000)"})
+    asi_initial_std_scale: float = field(default=1.0, metadata={"help": "initial std of every ASI component = this x the clip's per-dimension sample std (paper: 1)"})
     asi_step_size: float = field(default=0.001, metadata={"help": "ASI step size alpha_rho (paper: 0.001)"})
     job_id: str | None = field(default=None, metadata={"help": "ASI job id; derived from the run directory when absent"})
     checkpoint_every: int = field(default=10, metadata={"help": "iterations between checkpoints (and at the end)"})
@@ -40,6 +41,10 @@ class TrainConfig:
     worker_timeout_s: float = field(default=300.0, metadata={"help": "give up on a worker's batch after this long and hand it to another"})
     plot_every: int = field(default=5, metadata={"help": "iterations between redraws of the learning-curve PNG (0: never)"})
     plot_min_interval_s: float = field(default=30.0, metadata={"help": "and at least this many seconds between redraws (each costs ~0.2 s of the loop); the last iteration always redraws"})
+    curriculum_start_s: float = field(default=0.0, metadata={"help": "episode-length curriculum: episodes start capped at this many seconds, the cap growing linearly to the horizon over curriculum_samples (DeepMimic: 0.5 s over 32 M); 0: off"})
+    curriculum_samples: int = field(default=1_000_000, metadata={"help": "samples over which the curriculum's cap grows to the full horizon"})
+    eval_every: int = field(default=500_000, metadata={"help": "samples between deterministic evaluations during training (strict falls, evenly spaced phases; 0: never); figures go to metrics.jsonl (eval/...), TensorBoard and the learning curve"})
+    eval_episodes: int = field(default=8, metadata={"help": "episodes per evaluation during training (sfv eval uses 32)"})
     env: EnvConfig = field(default_factory=EnvConfig)
     ppo: PPOConfig = field(default_factory=PPOConfig)
 
@@ -60,6 +65,12 @@ class TrainConfig:
             raise SfvError(str(exc)) from None
         if self.torch_threads < 0:
             raise SfvError(f"--torch-threads must be >= 0 (0: every core), got {self.torch_threads}")
+        if not self.asi_initial_std_scale > 0:
+            raise SfvError(f"--asi-std-scale must be positive, got {self.asi_initial_std_scale}")
+        if self.curriculum_start_s < 0 or self.curriculum_samples <= 0:
+            raise SfvError(f"--curriculum-start-s must be >= 0 and --curriculum-samples positive, got {self.curriculum_start_s}, {self.curriculum_samples}")
+        if self.eval_every < 0 or self.eval_episodes <= 0:
+            raise SfvError(f"--eval-every must be >= 0 and --eval-episodes positive, got {self.eval_every}, {self.eval_episodes}")
         if self.asi_outage_s < 0:
             raise SfvError(f"--asi-outage-s must be >= 0, got {self.asi_outage_s}")
 
@@ -75,8 +86,38 @@ class TrainConfig:
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":
         d = dict(d)
-        env = dict(d.pop("env", {}))
+        env = _upgrade_env(dict(d.pop("env", {})))
         physics = PhysicsConfig(**env.pop("physics", {}))
         reward = RewardConfig(**env.pop("reward", {}))
         ppo = PPOConfig.from_dict(d.pop("ppo", {}))
-        return cls(**d, env=EnvConfig(physics=physics, reward=reward, **env), ppo=ppo)
+        try:
+            return cls(**d, env=EnvConfig(physics=physics, reward=reward, **env), ppo=ppo)
+        except TypeError as exc:  # a config from another version: name the field
+            raise ConfigError(f"run config: {exc}") from None
+
+
+def _upgrade_env(env: dict) -> dict:
+    """A run directory written before DeepMimic's reward, residual actions and strict falls
+    became the defaults (its config has no `residual_action_scale`): fill the new fields with
+    the settings that run was trained with, so `sfv eval`, `render`, `export` and `--resume`
+    still build its env. (Two feature details changed for every run: end effectors are
+    scored by their height above the ground, and the centre of mass's velocity is captured.)"""
+    if not env or "residual_action_scale" in env:
+        return env
+    from actors.skeleton import LINK_NAMES
+
+    env.setdefault("action_parameterisation", "axis_angle")
+    env["residual_action_scale"] = None
+    env.setdefault("sync_root_per_cycle", False)
+    env.setdefault("zero_reward_on_fall", False)
+    env.setdefault("state_space", "qpos")
+    env.setdefault("reference_obs_steps", ())
+    # The old rule: only the root, chest and neck touching the ground was a fall.
+    env.setdefault("ground_contact_links", tuple(n for n in LINK_NAMES if n not in ("root", "chest", "neck")))
+    reward = dict(env.get("reward", {}))
+    if "form" not in reward:
+        reward.update(form="sfv_paper", root_weight=0.0)
+        reward.setdefault("pose_weight", 0.65)
+        reward.setdefault("velocity_weight", 0.1)
+        env["reward"] = reward
+    return env

@@ -26,7 +26,6 @@ from pathlib import Path
 import numpy as np
 
 from actors.errors import SfvError
-from actors.features import OBS_DIM
 from actors.imitation_env import ImitationEnv
 from actors.motion_io import load_motion
 from actors.rollout_worker import RolloutWorker, WorkerSpec
@@ -51,6 +50,8 @@ class Trainer:
     worker_class = RolloutWorker  # what `_make_workers` instantiates (a subclass may wrap it)
 
     def __init__(self, config: TrainConfig, resume: bool = False, progress: bool = True):
+        if config.ppo.reward_max is not None:  # value targets are bounded by this env's own reward
+            config.ppo.reward_max = config.env.reward.max_reward
         config.validate()
         self.config = config
         self.resume = resume
@@ -125,16 +126,27 @@ class Trainer:
                 ray.shutdown()
 
     # ------------------------------------------------------------- collection
+    def _horizon_s(self) -> float | None:
+        """The episode-length curriculum's limit now (DeepMimic: 0.5 s annealed to 20 s over
+        32 M samples); None when the curriculum is off or over."""
+        c = self.config
+        if c.curriculum_start_s <= 0 or self.samples >= c.curriculum_samples:
+            return None
+        progress = self.samples / c.curriculum_samples
+        return c.curriculum_start_s + progress * (c.env.horizon_s - c.curriculum_start_s)
+
     def _collect(self, workers, weights, version: int, steps: int) -> list[dict]:
+        horizon = self._horizon_s()
         if self.config.serial:
-            results = [w.sample(weights, version, steps) for w in workers]
+            extra = {} if horizon is None else {"horizon_s": horizon}
+            results = [w.sample(weights, version, steps, **extra) for w in workers]
         else:
-            results = self._collect_remote(workers, weights, version, steps)
+            results = self._collect_remote(workers, weights, version, steps, horizon)
         for result in results:
             self._note_worker_pid(int(result["worker_index"]), int(result["worker_pid"]))
         return results
 
-    def _collect_remote(self, workers, weights, version: int, steps: int) -> list[dict]:
+    def _collect_remote(self, workers, weights, version: int, steps: int, horizon: float | None = None) -> list[dict]:
         """One share per worker; a share lost to a dead or hung worker goes to a worker that has answered."""
         import ray
         from ray.exceptions import RayError, RayTaskError
@@ -145,8 +157,10 @@ class Trainer:
         takebacks = 0
         max_failures = 3 * len(workers)  # beyond this the fault is not transient: stop, do not spin
 
+        extra = {} if horizon is None else {"horizon_s": horizon}
+
         def submit(index: int) -> None:
-            pending[workers[index].sample.remote(weights_ref, version, steps)] = index
+            pending[workers[index].sample.remote(weights_ref, version, steps, **extra)] = index
 
         def lost(index: int, reason: str) -> None:
             nonlocal failures
@@ -225,7 +239,7 @@ class Trainer:
         motion = load_motion(config.motion)
         env, ref_states, ref_phases = self._reference_table(motion)
         _set_torch_threads(config)
-        learner = PPOLearner(OBS_DIM, env.action_space.shape[0], config.ppo, device=config.device)
+        learner = PPOLearner(env.observation_space.shape[0], env.action_space.shape[0], config.ppo, device=config.device)
         asi_version = 0
         if checkpoint is not None:
             asi_version = self._restore(learner, checkpoint)
@@ -256,7 +270,11 @@ class Trainer:
         return int(checkpoint.get("asi_version", 0))
 
     def _loop(self, learner: PPOLearner, workers, metrics: MetricsLog, asi_version: int) -> dict:
+        import sys
+
         from tqdm import tqdm
+
+        from services.evaluate import TrainingEvaluator
 
         config = self.config
         steps = config.steps_per_worker
@@ -264,6 +282,7 @@ class Trainer:
         record: dict = {}
         start_samples, start_time = self.samples, time.perf_counter()
         last_plot = start_time
+        evaluator = TrainingEvaluator(config)  # strict, evenly phased episodes every eval_every samples and at the end
         while self.samples < config.samples:
             t0 = time.perf_counter()
             version = self.iteration
@@ -272,10 +291,22 @@ class Trainer:
             t_sample = time.perf_counter() - t0
             losses = self._update(learner, batch)
             n = batch["rewards"].size
+            samples_before = self.samples
             self.samples += n
             self.iteration += 1
             asi_version = max(asi_version, batch["asi_version"])
             record = self._record(batch, losses, n, time.perf_counter() - t0, t_sample, asi_version)
+            if evaluator.due(samples_before, self.samples, last=self.samples >= config.samples):
+                try:  # the current weights on strict episodes; figures land in metrics.jsonl and TensorBoard
+                    record.update(evaluator(learner.policy_weights()))
+                except Exception as exc:  # like the plot, an evaluation must never stop training
+                    log.warning("evaluation at %d samples failed: %s: %s", self.samples, type(exc).__name__, exc)
+                else:
+                    line = evaluator.summary(self.samples, record)
+                    if self.progress:
+                        tqdm.write(line, file=sys.stderr)  # beside the bar; stdout ends with the JSON summary
+                    else:
+                        log.info("%s", line)
             metrics.write(record)
             bar.update(n)
             bar.set_postfix(sps=f"{record['samples_per_s']:.0f}", ret=_fmt(record["normalized_return"]), asi=asi_version)
@@ -314,6 +345,7 @@ class Trainer:
             "episodes": int(len(episodes)),
             "reward_mean": float(batch["rewards"].mean()),
             "asi_version": int(asi_version),
+            "charts/horizon_s": self._horizon_s() or self.config.env.horizon_s,
             "asi_dropped_reports": int(batch["asi_dropped_reports"]),
             "worker_failures": self.worker_failures,
             "worker_restarts": self.worker_restarts,

@@ -15,6 +15,26 @@ SHARED = REPO.parent / "shared"
 os.environ.setdefault("MUJOCO_GL", "osmesa")
 
 
+def load_clip(name: str):
+    """A DeepMimic clip from pybullet_data (the test skips where the package is absent)."""
+    pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")
+    from actors.motion_io import load_motion
+
+    return load_motion(f"deepmimic:{name}")
+
+
+@pytest.fixture(scope="session")
+def walk_clip():
+    return load_clip("walk")
+
+
+@pytest.fixture(scope="session")
+def shared_humanoid():
+    from actors.humanoid import Humanoid
+
+    return Humanoid()
+
+
 @pytest.fixture(scope="session")
 def shared_dir() -> Path:
     if not SHARED.is_dir():

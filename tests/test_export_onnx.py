@@ -25,7 +25,7 @@ from services.run_dir import CONFIG_FILE, METRICS_FILE
 from services.train_config import TrainConfig
 
 REPO = Path(__file__).resolve().parents[1]
-ACT_DIM = 36  # axis-angle actions: 8 ball joints x 4 + 4 hinges
+ACT_DIM = 28  # the default exp-map (residual) actions: 8 ball joints x 3 + 4 hinges
 
 
 def make_tiny_run(run_dir: Path, init: str = "rsi", seed: int = 0, hidden=(64,), returns=(0.05, 0.1, 0.2)) -> PPOLearner:

@@ -1,5 +1,6 @@
-"""The imitation env with real MuJoCo: reward terms (SFV §7.2), termination, truncation,
-initial states, determinism, observation and action spaces."""
+"""The imitation env with real MuJoCo: reward terms in the paper's form (SFV §7.2,
+`RewardConfig.sfv_paper()`; the default DeepMimic form is in test_reward_forms.py),
+termination, truncation, initial states, determinism, observation and action spaces."""
 
 import mujoco
 import numpy as np
@@ -11,6 +12,7 @@ from actors.features import update_kinematics
 from actors.humanoid import Humanoid
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.kinematics import forward_kinematics
+from actors.reward import RewardConfig
 from actors.skeleton import END_EFFECTOR_LINKS, JOINT_NAMES, LINK_NAMES, NUM_JOINTS
 from actors.state import StateLayout
 
@@ -41,6 +43,12 @@ def humanoid():
 @pytest.fixture(scope="module")
 def env(walk, humanoid):
     return ImitationEnv(walk, EnvConfig(horizon_s=2.0), humanoid)
+
+
+@pytest.fixture(scope="module")
+def paper_env(walk, humanoid):
+    """The paper's reward: sums over joints, four terms (the root term's weight is 0)."""
+    return ImitationEnv(walk, EnvConfig(horizon_s=2.0, reward=RewardConfig.sfv_paper()), humanoid)
 
 
 @pytest.fixture
@@ -79,7 +87,8 @@ def test_tracking_the_wrong_frame_scores_less(env):
     assert env.reward_at(15) < 0.9
 
 
-def test_hinge_error_lowers_pose_and_end_effector_terms(env):
+def test_hinge_error_lowers_pose_and_end_effector_terms(paper_env):
+    env = paper_env
     delta, row = 0.3, 10
     elbow = qpos_index(env, "left_elbow")
     reference_pose = env.track.qpos[row].copy()
@@ -87,9 +96,9 @@ def test_hinge_error_lowers_pose_and_end_effector_terms(env):
     def bend(data):
         data.qpos[elbow] += delta
 
-    reward, (pose, vel, ee, com) = terms_after(env, row, bend)
+    reward, (pose, vel, ee, root, com) = terms_after(env, row, bend)
     assert pose == pytest.approx(np.exp(-2.0 * delta**2), rel=1e-9)  # one rotation off by delta
-    assert vel == pytest.approx(1.0, abs=1e-12)
+    assert vel == pytest.approx(1.0, abs=1e-12) and root == pytest.approx(1.0, abs=1e-12)
     # Independent check of the end-effector term: the wrist moves, the ankles do not, and a
     # heading-frame rotation keeps lengths, so the error is the wrist's world displacement.
     layout, quats = StateLayout(env.humanoid), np.zeros((NUM_JOINTS, 4))
@@ -103,7 +112,8 @@ def test_hinge_error_lowers_pose_and_end_effector_terms(env):
     assert reward == pytest.approx(0.65 * pose + 0.1 * vel + 0.15 * ee + 0.1 * com, rel=1e-12)
 
 
-def test_ball_joint_error_lowers_only_pose_and_com_terms(env):
+def test_ball_joint_error_lowers_only_pose_and_com_terms(paper_env):
+    env = paper_env
     angle, row = 0.25, 12
     neck = qpos_index(env, "neck")
     axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
@@ -111,13 +121,14 @@ def test_ball_joint_error_lowers_only_pose_and_com_terms(env):
     def turn_head(data):
         data.qpos[neck:neck + 4] = qn.quat_mul(data.qpos[neck:neck + 4], qn.quat_from_axis_angle(angle * axis))
 
-    _, (pose, vel, ee, com) = terms_after(env, row, turn_head)
+    _, (pose, vel, ee, root, com) = terms_after(env, row, turn_head)
     assert pose == pytest.approx(np.exp(-2.0 * angle**2), rel=1e-9)
     assert vel == pytest.approx(1.0, abs=1e-12) and ee == pytest.approx(1.0, abs=1e-12)  # the head is no end effector
     assert com < 1.0
 
 
-def test_velocity_error_lowers_only_velocity_term(env):
+def test_velocity_error_lowers_only_velocity_term(paper_env):
+    env = paper_env
     row, kick_rate = 9, np.array([0.5, -1.0, 2.0])
     chest = dof_index(env, "chest")
     knee = dof_index(env, "right_knee")
@@ -126,29 +137,33 @@ def test_velocity_error_lowers_only_velocity_term(env):
         data.qvel[chest:chest + 3] += kick_rate
         data.qvel[knee] += 1.5
 
-    _, (pose, vel, ee, com) = terms_after(env, row, spin)
+    _, (pose, vel, ee, root, com) = terms_after(env, row, spin)
     assert vel == pytest.approx(np.exp(-0.1 * (kick_rate @ kick_rate + 1.5**2)), rel=1e-9)
-    np.testing.assert_allclose((pose, ee, com), 1.0, atol=1e-12)
+    np.testing.assert_allclose((pose, ee, root, com), 1.0, atol=1e-12)
 
 
-def test_root_translation_lowers_only_com_term(env):
-    row, shift = 11, np.array([0.1, -0.2, 0.05])
+def test_root_translation_lowers_com_and_end_effector_height_terms(paper_env):
+    env, row, shift = paper_env, 11, np.array([0.1, -0.2, 0.05])
 
     def move(data):
         data.qpos[:3] += shift
 
-    _, (pose, vel, ee, com) = terms_after(env, row, move)
+    _, (pose, vel, ee, root, com) = terms_after(env, row, move)
     assert com == pytest.approx(np.exp(-10.0 * shift @ shift), rel=1e-9)
-    np.testing.assert_allclose((pose, vel, ee), 1.0, atol=1e-12)
+    # End effectors are DeepMimic's features in both forms: horizontal offsets from the root
+    # (unchanged) and heights above the ground (each of the 4 up by shift[2], summed).
+    assert ee == pytest.approx(np.exp(-40.0 * 4 * shift[2] ** 2), rel=1e-9)
+    np.testing.assert_allclose((pose, vel, root), 1.0, atol=1e-12)
 
 
-def test_root_yaw_changes_pose_but_not_heading_frame_end_effectors(env):
+def test_root_yaw_changes_pose_but_not_heading_frame_end_effectors(paper_env):
+    env = paper_env
     row, yaw = 14, 0.4
 
     def turn(data):
         data.qpos[3:7] = qn.quat_mul(qn.quat_about_axis(yaw, Z), data.qpos[3:7])
 
-    _, (pose, vel, ee, com) = terms_after(env, row, turn)
+    _, (pose, vel, ee, root, com) = terms_after(env, row, turn)
     assert pose == pytest.approx(np.exp(-2.0 * yaw**2), rel=1e-9)
     assert ee == pytest.approx(1.0, abs=1e-12) and vel == pytest.approx(1.0, abs=1e-12)
 
@@ -209,7 +224,7 @@ def test_falls_on_head_end_the_episode(env):
             break
     assert terminated and not truncated and step < 30
     assert head_or_torso_touches_floor(env)
-    assert 0.0 <= reward <= 1.0
+    assert reward == 0.0  # the step that ends in a fall earns nothing (DeepMimic)
 
 
 def test_without_early_termination_the_fall_goes_on(walk, humanoid):
@@ -225,9 +240,11 @@ def test_without_early_termination_the_fall_goes_on(walk, humanoid):
 
 def test_feet_on_the_floor_do_not_end_the_episode(env):
     env.reset(seed=0, options={"init": "fsi"})
-    _, _, terminated, _, _ = env.step(np.zeros(env.action_space.shape))
-    assert env.data.ncon > 0 and not head_or_torso_touches_floor(env)  # only the feet touch the floor
-    assert not terminated
+    _, reward, terminated, _, _ = env.step(np.zeros(env.action_space.shape))
+    feet = [env.model.body_geomadr[env.humanoid.body_ids[LINK_NAMES.index(n)]] for n in ("right_ankle", "left_ankle")]
+    touching = set(env.data.contact.geom[: env.data.ncon].ravel()) - {env.humanoid.floor_geom_id}
+    assert env.data.ncon > 0 and touching <= set(feet)  # only the feet touch the floor
+    assert not terminated and reward > 0.9
 
 
 def test_diverged_simulation_is_terminated_not_teleported(env, scratch_cwd):
@@ -330,10 +347,15 @@ def test_same_seed_and_actions_give_identical_trajectories(walk, humanoid):
 
 # --------------------------------------------------------------------------- actions
 def test_action_spaces(walk, humanoid):
-    assert ImitationEnv(walk, EnvConfig(horizon_s=0.5), humanoid).action_space.shape == (36,)
-    env = ImitationEnv(walk, EnvConfig(horizon_s=0.5, action_parameterisation="exp_map"), humanoid)
-    assert env.action_space.shape == (28,)
+    # The default: exp-map residual actions, 8 ball joints x 3 + 4 hinges.
+    env = ImitationEnv(walk, EnvConfig(horizon_s=0.5), humanoid)
+    assert env.action_space.shape == (28,) and env.actions.residual
     assert (env.action_space.low == -1).all() and (env.action_space.high == 1).all()
+    # SFV's axis-angle actions, 8 x (angle + axis) + 4 hinges, are absolute targets only.
+    paper = ImitationEnv(walk, EnvConfig(horizon_s=0.5, action_parameterisation="axis_angle", residual_action_scale=None), humanoid)
+    assert paper.action_space.shape == (36,) and not paper.actions.residual
+    with pytest.raises(ValueError, match="residual"):
+        ImitationEnv(walk, EnvConfig(horizon_s=0.5, action_parameterisation="axis_angle"), humanoid)
     with pytest.raises(ValueError, match="parameterisation"):
         ActionMapper("quaternion")
 
@@ -356,8 +378,8 @@ def test_action_for_targets_inverts_targets(parameterisation):
 
 
 def test_pd_targets_move_the_intended_joints(walk, humanoid):
-    """End to end: an action asking for a bent elbow and a raised shoulder gets them."""
-    env = ImitationEnv(walk, EnvConfig(horizon_s=2.0, action_parameterisation="exp_map"), humanoid)
+    """End to end: an absolute action asking for a bent elbow and a raised shoulder gets them."""
+    env = ImitationEnv(walk, EnvConfig(horizon_s=2.0, action_parameterisation="exp_map", residual_action_scale=None), humanoid)
     mujoco.mj_resetData(env.model, env.data)
     standing = env.layout.state_vector(env.data.qpos, env.data.qvel)
     env.reset(seed=0, options={"phase": 0.0, "state": standing})

@@ -15,6 +15,7 @@ from actors.humanoid import Humanoid
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.motion import ReferenceMotion
 from actors.motion_io import DEEPMIMIC_COLUMNS, load_motion
+from actors.reward import RewardConfig
 from actors.skeleton import NUM_JOINTS
 
 @pytest.fixture(scope="module", autouse=True)
@@ -118,9 +119,12 @@ HUMANOID = Humanoid()
 
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(motion=valid_motions(), seed=st.integers(0, 2**31 - 1), init=st.sampled_from(["fsi", "rsi"]),
-       parameterisation=st.sampled_from(["axis_angle", "exp_map"]))
-def test_valid_motion_runs_in_env_with_finite_observations(motion, seed, init, parameterisation):
-    config = EnvConfig(horizon_s=0.5, init=init, action_parameterisation=parameterisation)
+       actions=st.sampled_from([("exp_map", 0.5), ("exp_map", None), ("axis_angle", None)]),
+       reward=st.sampled_from([RewardConfig(), RewardConfig.sfv_paper()]))
+def test_valid_motion_runs_in_env_with_finite_observations(motion, seed, init, actions, reward):
+    parameterisation, residual = actions  # residual targets are exp-map offsets only
+    config = EnvConfig(horizon_s=0.5, init=init, action_parameterisation=parameterisation, residual_action_scale=residual,
+                       reward=reward)
     env = ImitationEnv(motion, config, HUMANOID)
     obs, info = env.reset(seed=seed)
     assert np.isfinite(obs).all() and 0.0 <= info["phase"] <= 1.0

@@ -49,7 +49,7 @@ def test_reference_starts_auto_reset_and_episode_records(walk):
     venv = VectorImitationEnv(walk, config, num_envs=3, starts=starts, seed=11, gamma=GAMMA)
     obs = venv.reset()
     assert obs.shape == (3, 197) and obs.dtype == np.float32 and np.isfinite(obs).all()
-    assert venv.action_dim == 36 and venv.state_dim == venv.envs[0].state_dim
+    assert venv.action_dim == 28 and venv.state_dim == venv.envs[0].state_dim  # exp-map actions: 8 x 3 + 4
     assert len({round(float(p), 6) for p in obs[:, -1]}) == 3, "three different RSI phases"
 
     finished, running = replay_episodes(venv, 25, np.random.default_rng(1))
@@ -88,7 +88,7 @@ class UpsideDownStarts:
 
 
 def test_state_starts_fall_and_record_their_initial_states(walk):
-    config = EnvConfig(horizon_s=2.0)
+    config = EnvConfig(horizon_s=2.0, state_space="qpos")  # UpsideDownStarts hands out qpos[2:] + qvel vectors
     source = UpsideDownStarts(Humanoid(config.physics))
     venv = VectorImitationEnv(walk, config, num_envs=3, starts=BufferedStarts(source, batch=2), seed=0)
     venv.reset()
@@ -97,6 +97,7 @@ def test_state_starts_fall_and_record_their_initial_states(walk):
     finished, _ = replay_episodes(venv, 30, np.random.default_rng(2))
     log = venv.episodes.drain()
     assert len(finished) >= 3 and log["fell"].all(), "head-first starts end in falls"
+    assert all(rewards[-1] == 0.0 for _, rewards, _ in finished), "the step that ends in a fall earns nothing"
     assert (log["lengths"] < 2.0 * 30).all()
     assert (log["normalized_returns"] < 0.5).all()
     np.testing.assert_allclose(log["initial_states"], np.tile(source.state, (len(finished), 1)), atol=1e-6)

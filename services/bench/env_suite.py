@@ -7,6 +7,7 @@ All variants run in this process, one core, interleaved in every repetition.
 from __future__ import annotations
 
 from actors.actions import ActionMapper
+from actors.features import observation_dim
 from actors.humanoid import PhysicsConfig
 from actors.imitation_env import EnvConfig
 from actors.motion_io import load_motion
@@ -46,7 +47,7 @@ def run_env_suite(config: BenchConfig, log) -> SuiteResult:
     motion = load_motion(config.motion)
     raw = RawPhysics(env_config)
     env = EnvStepper(motion, env_config, config.action_noise, config.seed)
-    weights = fresh_policy_weights(env.env.action_space.shape[0], seed=config.seed)
+    weights = fresh_policy_weights(env.env.action_space.shape[0], seed=config.seed, obs_dim=env.env.obs_dim)
     worker = WorkerStepper(motion, env_config, config.envs_per_worker, weights, config.seed)
     variants = {
         "raw": lambda: rate_for(config.seconds, raw.chunk).named("raw_steps"),
@@ -67,7 +68,8 @@ def run_worker_suite(config: BenchConfig, log) -> SuiteResult:
     motion = load_motion(config.motion)
     raw = RawPhysics(env_config)
     variants = {"raw": lambda: rate_for(config.seconds, raw.chunk).named("raw_steps")}
-    weights = fresh_policy_weights(ActionMapper(env_config.action_parameterisation).action_dim, seed=config.seed)
+    weights = fresh_policy_weights(ActionMapper(env_config.action_parameterisation).action_dim, seed=config.seed,
+                                   obs_dim=observation_dim(len(env_config.reference_obs_steps)))
     for m in config.worker_envs:
         if m < 1:
             raise ValueError(f"worker_envs must be >= 1, got {m}")

@@ -34,7 +34,7 @@ def parse_suites(text: str) -> tuple[str, ...]:
         raise ValueError(f"no suite given; choose from {', '.join(SUITES)} or all")
     unknown = [n for n in names if n != "all" and n not in SUITES]
     if unknown:
-        raise ValueError(f"unknown suite {unknown[0]!r}; choose from {', '.join(SUITES)} or all")
+        raise ValueError(f"unknown suite {unknown[0]!r}; choose from {', '.join(SUITES)} or all (or learning, on its own)")
     if "all" in names:
         return SUITES
     return tuple(s for s in SUITES if s in names)

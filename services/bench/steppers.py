@@ -96,10 +96,10 @@ class WorkerStepper:
         return self.steps_per_sample * self.num_envs
 
 
-def fresh_policy_weights(action_dim: int, hidden: tuple[int, ...] = (1024, 512), seed: int = 0) -> dict:
+def fresh_policy_weights(action_dim: int, hidden: tuple[int, ...] = (1024, 512), seed: int = 0, obs_dim: int = OBS_DIM) -> dict:
     """The weights of a freshly initialised PPO policy of the paper's size."""
     from learner.config import PPOConfig
     from learner.ppo import PPOLearner
 
-    learner = PPOLearner(OBS_DIM, action_dim, PPOConfig(policy_hidden=hidden, value_hidden=hidden, seed=seed))
+    learner = PPOLearner(obs_dim, action_dim, PPOConfig(policy_hidden=hidden, value_hidden=hidden, seed=seed))
     return learner.policy_weights()

@@ -1,4 +1,5 @@
-"""`sfv bench --suite env|worker|learner|system|peer|pose|all [--quick] --out FILE.json`."""
+"""`sfv bench --suite env|worker|learner|system|peer|pose|all [--quick] --out FILE.json`, and
+`sfv bench --suite learning --out-dir DIR [...]` (services/bench/learning_suite.py: training runs, hours)."""
 from __future__ import annotations
 
 import argparse
@@ -10,11 +11,13 @@ from services.errors import SfvError
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     from services.bench.config import SUITES, BenchConfig
+    from services.bench.learning_suite import add_arguments as add_learning_arguments
 
     defaults = BenchConfig()
     p = subparsers.add_parser("bench", help="throughput benchmarks: physics bound, env, worker, learner, training, peer, pose")
-    p.add_argument("--suite", default="all", help=f"{', '.join(SUITES)} or all; several comma-separated (default all)")
-    p.add_argument("--out", type=Path, required=True, help="JSON report to write (atomically)")
+    p.add_argument("--suite", default="all", help=f"{', '.join(SUITES)} or all; several comma-separated (default all); "
+                                                  "or learning on its own (training runs: see the learning flags)")
+    p.add_argument("--out", type=Path, default=None, help="JSON report to write (atomically); required except for --suite learning")
     p.add_argument("--quick", action="store_true", help="3 repetitions of 0.5 s, 2-iteration training runs (smoke runs, CI)")
     p.add_argument("--repeats", type=int, default=None, help=f"measured repetitions per variant (default {defaults.repeats}, quick 3)")
     p.add_argument("--seconds", type=float, default=None, help=f"length of one timed stepping measurement (default {defaults.seconds}, quick 0.5)")
@@ -26,6 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--pose-models", default=None, help="BlazePose model directory (default $SFV_POSE_MODELS, the cache, ../shared)")
     p.add_argument("--seed", type=int, default=0, help="seed of random actions, policy init and learner data")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    add_learning_arguments(p)
     p.set_defaults(handler=run_bench)
 
 
@@ -55,10 +59,21 @@ def build_config(args):
 
 
 def run_bench(args) -> int:
+    from services.bench.learning_suite import LEARNING_FLAGS, run_learning_command
     from services.bench.report import markdown_table, write_json_atomic
     from services.bench.runner import run_benchmarks
 
+    names = {s.strip() for s in args.suite.split(",") if s.strip()}
+    if "learning" in names:
+        if names != {"learning"}:
+            raise SfvError(f"--suite {args.suite!r}: the learning suite runs on its own (it trains for hours and writes OUT_DIR/learning.json)")
+        return run_learning_command(args)
+    given = [name for name in LEARNING_FLAGS if getattr(args, name, None) is not None]
+    if given:
+        raise SfvError(f"--{given[0].replace('_', '-')} belongs to --suite learning, not --suite {args.suite}")
     config = build_config(args)
+    if args.out is None:
+        raise SfvError(f"--out is required for --suite {args.suite} (the JSON report to write)")
     out = args.out
     if out.suffix != ".json":
         raise SfvError(f"{out}: the report must be a .json file")

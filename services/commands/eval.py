@@ -1,27 +1,88 @@
-"""`sfv eval RUN`: one JSON object with the policy's normalised return, length, fall rate."""
+"""`sfv eval RUN`: one JSON object with the policy's strict evaluation.
+
+    sfv eval RUN [--episodes 32] [--push N [--push-impulse J] [--push-duration T]] [--seed K]
+    sfv eval [RUN] --onnx policy.onnx [--motion deepmimic:walk]   (no torch)
+
+Deterministic episodes (the policy's mean) start at evenly spaced phases of the clip (episode
+k of E at phase k/E, from the reference's full state there). Falls are always judged by the
+clip's strict rule after every control step, whatever the training's early termination was:
+DeepMimic's contact rule (any link but the feet, and those the clip allows, on the ground)
+plus a pelvis-height floor. Keys: normalized_return (+ _std), fall_rate, episode_length,
+episode_seconds, joint_rotation_error_rad, end_effector_error_m, distance_ratio (looped clips),
+divergences, episodes; with --push: pushes, push_impulse_ns, push_duration_s, push_episodes,
+push_survival_rate. `services/evaluate.py` defines each.
+"""
 from __future__ import annotations
 
+import argparse
 import json
+import math
+
+# The same numbers as services.evaluate's (imported lazily: every sfv command builds this parser).
+DEFAULT_EPISODES = 32
+PUSH_RECOVERY_S = 1.0
+
+PUSH_HELP = ("push the character N times an episode: each push is an impulse (--push-impulse, N s) on the root (pelvis) "
+             "as a constant horizontal force impulse/duration for --push-duration seconds (whole control steps), in a "
+             "direction drawn uniformly on the horizontal circle; the pushes are spread evenly over the episode (the span "
+             f"after 0.5 s and before the last {PUSH_RECOVERY_S:g} s is cut into N equal slots, each push starts at a random "
+             "step of its slot; episode k draws from seed + k). push_survival_rate: fraction of the episodes long enough "
+             "for N pushes that end without a strict fall")
 
 
 def register(sub) -> None:
-    p = sub.add_parser("eval", help="evaluate a trained policy (prints one JSON object)")
+    p = sub.add_parser("eval", help="evaluate a trained policy with strict falls (prints one JSON object)",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("run", nargs="?", default=None, help="run directory (newest checkpoint); optional with --onnx")
-    p.add_argument("--episodes", type=int, default=10, help="episodes to average over")
-    p.add_argument("--init", choices=("rsi", "fsi"), default="rsi", help="where episodes start on the reference")
-    p.add_argument("--seed", type=int, default=0)
+    # Numbers are parsed here, not by argparse, so that a bad value is one line naming the flag.
+    p.add_argument("--episodes", default=str(DEFAULT_EPISODES), metavar="E",
+                   help=f"episodes, started at evenly spaced phases of the clip (default {DEFAULT_EPISODES})")
+    p.add_argument("--push", default="0", metavar="N", help=PUSH_HELP)
+    p.add_argument("--push-impulse", default="40", metavar="J",
+                   help="impulse of one push in N s (default 40: ~0.9 m/s on the 45 kg character)")
+    p.add_argument("--push-duration", default="0.1", metavar="T",
+                   help="seconds one push acts (default 0.1 = 3 control steps at 30 Hz)")
+    p.add_argument("--seed", default="0", metavar="K", help="episode k uses seed + k (push directions and times)")
     p.add_argument("--onnx", default=None, help="evaluate an exported ONNX policy instead of the checkpoint (no torch)")
-    p.add_argument("--motion", default=None, help="motion for an ONNX policy without a run directory")
+    p.add_argument("--motion", default=None, help="motion to evaluate on (default: the run's); required for --onnx without a run")
     p.set_defaults(handler=run)
+
+
+def _integer(flag: str, text: str, minimum: int | None = None) -> int:
+    from actors.errors import SfvError
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise SfvError(f"eval: {flag} must be an integer, got {text!r}") from None
+    if minimum is not None and value < minimum:
+        raise SfvError(f"eval: {flag} must be {'positive' if minimum == 1 else f'>= {minimum}'}, got {value}")
+    return value
+
+
+def _number(flag: str, text: str, positive: bool) -> float:
+    from actors.errors import SfvError
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise SfvError(f"eval: {flag} must be a number, got {text!r}") from None
+    if not math.isfinite(value) or value < 0 or (positive and value == 0):
+        raise SfvError(f"eval: {flag} must be a finite number {'> 0' if positive else '>= 0'}, got {text}")
+    return value
 
 
 def run(args) -> int:
     from actors.errors import SfvError
     from services.evaluate import evaluate_run
 
+    episodes = _integer("--episodes", args.episodes, 1)
+    pushes = _integer("--push", args.push, 0)
+    impulse = _number("--push-impulse", args.push_impulse, positive=False)
+    duration = _number("--push-duration", args.push_duration, positive=True)
+    seed = _integer("--seed", args.seed)
     if args.run is None and args.onnx is None:
         raise SfvError("eval: give a run directory or --onnx FILE")
-    if args.episodes <= 0:
-        raise SfvError(f"eval: --episodes must be positive, got {args.episodes}")
-    print(json.dumps(evaluate_run(args.run, args.episodes, args.seed, args.init, args.onnx, args.motion)))
+    print(json.dumps(evaluate_run(args.run, episodes, seed, onnx=args.onnx, motion=args.motion, pushes=pushes,
+                                  push_impulse=impulse, push_duration_s=duration)))
     return 0

@@ -37,6 +37,25 @@ def register(sub) -> None:
                    help="learner's torch threads (default: every core; workers wait while the learner updates)")
     p.add_argument("--physics-hz", type=float, default=None, help="physics rate (default 300)")
     p.add_argument("--no-early-termination", action="store_true", help="keep episodes going after a fall (rolls, getups)")
+    p.add_argument("--ground-contact", type=_link_names, default=None, metavar="LINK,LINK",
+                   help="links besides the feet allowed on the ground without a fall (default: the clip's DeepMimic setting; 'none': feet only)")
+    p.add_argument("--reward", choices=("deepmimic", "sfv_paper"), default=None,
+                   help="reward form (default deepmimic: weighted-mean joint errors, root term, centre-of-mass velocity; sfv_paper: the paper's sums)")
+    p.add_argument("--action", choices=("exp_map", "axis_angle"), default=None, help="action parameterisation (default exp_map)")
+    p.add_argument("--residual-scale", type=float, default=None,
+                   help="residual PD targets: reference + this (rad) x action (default 0.5); 0 = absolute targets")
+    p.add_argument("--reference-obs", type=_steps, default=None, metavar="K,K",
+                   help="control steps ahead at which the policy observes the reference root (e.g. 1,15); 'none' for SFV's observation")
+    p.add_argument("--asi-std-scale", type=_positive(float), default=None,
+                   help="initial std of each ASI component as a multiple of the clip's per-dimension std (paper: 1)")
+    p.add_argument("--state-space", choices=("rotvec", "qpos"), default=None,
+                   help="coordinates ASI's Gaussians live in (default rotvec; qpos: SFV's raw qpos + qvel)")
+    p.add_argument("--curriculum-start-s", type=float, default=None,
+                   help="episode-length curriculum: first episodes capped at this many seconds, growing to the horizon (0: off, the default)")
+    p.add_argument("--curriculum-samples", type=_positive(int), default=None, help="samples over which the curriculum reaches the horizon")
+    p.add_argument("--no-root-sync", action="store_true", help="do not re-synchronise the reference root to the character each cycle")
+    p.add_argument("--eval-every", type=int, default=None, help="samples between evaluations during training (default 500000; 0: never)")
+    p.add_argument("--eval-episodes", type=int, default=None, help="episodes per evaluation during training (default 8)")
     p.add_argument("--asi-components", type=int, default=10, help="k, Gaussian components of the ASI distribution")
     p.add_argument("--asi-episodes-per-update", type=int, default=2000, help="episodes per ASI gradient step (paper: 2000)")
     p.add_argument("--checkpoint-every", type=int, default=None, help="iterations between checkpoints")
@@ -49,6 +68,7 @@ def build_config(args):
     import dataclasses
     from pathlib import Path
 
+    from actors.errors import SfvError
     from actors.humanoid import PhysicsConfig
     from services.run_dir import CONFIG_FILE
     from services.train_config import TrainConfig
@@ -90,6 +110,36 @@ def build_config(args):
         env = dataclasses.replace(env, physics=PhysicsConfig(physics_hz=args.physics_hz))
     if args.no_early_termination:
         env = dataclasses.replace(env, early_termination=False)
+    if args.ground_contact is not None:
+        env = dataclasses.replace(env, ground_contact_links=args.ground_contact)
+    if args.reward == "sfv_paper":
+        from actors.reward import RewardConfig
+
+        env = dataclasses.replace(env, reward=RewardConfig.sfv_paper())
+    if args.action is not None:
+        env = dataclasses.replace(env, action_parameterisation=args.action)
+    if args.residual_scale is not None:
+        if args.residual_scale < 0:
+            raise SfvError(f"--residual-scale must be >= 0 (0: absolute targets), got {args.residual_scale}")
+        env = dataclasses.replace(env, residual_action_scale=args.residual_scale or None)
+    if env.action_parameterisation != "exp_map" and env.residual_action_scale is not None:
+        raise SfvError("--action axis_angle needs --residual-scale 0: residual targets are exp-map offsets")
+    if args.reference_obs is not None:
+        env = dataclasses.replace(env, reference_obs_steps=args.reference_obs)
+    if args.state_space is not None:
+        env = dataclasses.replace(env, state_space=args.state_space)
+    if args.asi_std_scale is not None:
+        config.asi_initial_std_scale = args.asi_std_scale
+    if args.curriculum_start_s is not None:
+        config.curriculum_start_s = args.curriculum_start_s
+    if args.curriculum_samples is not None:
+        config.curriculum_samples = args.curriculum_samples
+    if args.no_root_sync:
+        env = dataclasses.replace(env, sync_root_per_cycle=False)
+    if args.eval_every is not None:
+        config.eval_every = args.eval_every
+    if args.eval_episodes is not None:
+        config.eval_episodes = args.eval_episodes
     config.env = env
     return config
 
@@ -109,6 +159,34 @@ def _positive(kind):
 
     parse.__name__ = kind.__name__
     return parse
+
+
+def _steps(text: str) -> tuple[int, ...]:
+    import argparse
+
+    if text.strip().lower() == "none":
+        return ()
+    try:
+        steps = tuple(int(part) for part in text.split(","))
+    except ValueError:
+        steps = ()
+    if not steps or min(steps) < 1:
+        raise argparse.ArgumentTypeError(f"expected positive step counts separated by commas, or 'none', got {text!r}")
+    return steps
+
+
+def _link_names(text: str) -> tuple[str, ...]:
+    import argparse
+
+    from actors.skeleton import LINK_NAMES
+
+    if text.strip().lower() == "none":
+        return ()
+    names = tuple(part.strip() for part in text.split(",") if part.strip())
+    unknown = [n for n in names if n not in LINK_NAMES]
+    if not names or unknown:
+        raise argparse.ArgumentTypeError(f"expected link names separated by commas (of {', '.join(LINK_NAMES)}), got {text!r}")
+    return names
 
 
 def _layer_sizes(text: str) -> tuple[int, ...]:

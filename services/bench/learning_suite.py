@@ -1,0 +1,630 @@
+"""Suite `learning`: how well and how fast PPO learns each skill, per initial-state strategy.
+
+    sfv bench --suite learning --out-dir bench/learning [--skills deepmimic:walk,deepmimic:run]
+              [--inits asi,rsi,fsi] [--seeds 0,1] [--samples 2M] [--workers 2] [--envs-per-worker 32]
+              [--serial] [--eval-every 200k] [--eval-episodes 8] [--batch-size 4096] [--minibatch-size 256] [--final-episodes 32]
+
+A grid of skills x inits x seeds at one sample budget. Every cell is one ordinary training
+run (`services.trainer.Trainer`, the code `sfv train` runs) into OUT_DIR/runs/<clip>_<init>_s<seed>/;
+when it has finished, the run's newest checkpoint is evaluated with `services.evaluate.evaluate_run`
+(deterministic policy, `--final-episodes` episodes) and its learning curve is read back from
+metrics.jsonl (training normalised return per iteration, and the `eval/...` rows the trainer
+writes every `--eval-every` samples). Everything goes into OUT_DIR/learning.json, rewritten
+atomically after every run, and OUT_DIR/learning.png (one panel per skill, one line per
+init and seed).
+
+Resumable: a rerun of the same command skips the runs learning.json records as complete at
+this budget (or more), continues a run that has checkpoints but no complete record from its
+newest checkpoint (`Trainer(config, resume=True)`), and starts the rest afresh. A larger
+`--samples` continues complete runs to the new budget. A run directory trained with other
+settings (motion, init, seed, batch sizes, physics rate) is an error, not silently mixed.
+
+learning.json (format "sfv-learning-1"):
+    {"format", "command", "created", "updated", "machine", "threshold",
+     "runs": {"<clip>_<init>_s<seed>": {
+         "name", "skill", "init", "seed", "run_dir" (relative to OUT_DIR),
+         "status": "complete" | "incomplete" (interrupted) | "failed" (an error; "error" holds it),
+         "config": {motion, init, seed, samples (budget), workers, envs_per_worker, serial, device,
+                    batch_size, minibatch_size, update_epochs, policy_lr, physics_hz, control_hz,
+                    eval_every, eval_episodes, final_episodes},
+         "samples", "wall_s" (training, all invocations), "eval_s", "samples_per_s" (samples / wall_s),
+         "resumes" (times continued from a checkpoint), "finished", "machine",
+         "eval": {every key evaluate_run returns: normalized_return, fall_rate, episode_length, ...},
+         "curve": {"train": {"samples", "normalized_return", "fall_rate", "episode_length"},
+                   "eval": {"samples", "eval/normalized_return", ... every eval/ key}},
+         "samples_to_threshold": first samples at which NR >= threshold, or null;
+         "threshold_source": "eval" (eval rows + final eval) or "train_smoothed" (EMA 0.8 of the
+                             training NR + final eval), used where the run has no eval rows}}}
+"""
+from __future__ import annotations
+
+import dataclasses
+import datetime
+import gc
+import json
+import math
+import re
+import shlex
+import shutil
+import sys
+import time
+import traceback
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from actors.errors import SfvError
+
+FORMAT = "sfv-learning-1"
+RESULTS_FILE = "learning.json"
+PLOT_FILE = "learning.png"
+RUNS_DIR = "runs"
+DEFAULT_SKILLS = ("deepmimic:walk", "deepmimic:run", "deepmimic:backflip", "deepmimic:cartwheel")
+INITS = ("asi", "rsi", "fsi")  # services.train_config.INIT_MODES
+THRESHOLD = 0.8
+DEFAULT_SAMPLES = 2_000_000
+EVAL_POINTS = 10  # default --eval-every: the budget / this
+SMOOTHING = 0.8  # EMA weight of training curves, as services.plotting draws them
+# Settings that make a run what it is; a run directory trained with others is not resumed into.
+IDENTITY = {"motion": ("motion",), "init": ("init",), "seed": ("seed",), "batch_size": ("ppo", "batch_size"),
+            "minibatch_size": ("ppo", "minibatch_size"), "physics_hz": ("env", "physics", "physics_hz")}
+# Flags only the learning suite reads (argparse dest names); None when not given.
+LEARNING_FLAGS = ("out_dir", "skills", "inits", "seeds", "samples", "workers", "serial", "eval_every", "eval_episodes",
+                  "batch_size", "minibatch_size", "final_episodes", "device")
+
+
+@dataclass
+class LearningConfig:
+    out_dir: Path = field(default=Path("bench/learning"), metadata={"help": "learning.json, learning.png and runs/ go here"})
+    skills: tuple[str, ...] = field(default=DEFAULT_SKILLS, metadata={"help": "motions to learn (names or files)"})
+    inits: tuple[str, ...] = field(default=INITS, metadata={"help": "initial-state strategies"})
+    seeds: tuple[int, ...] = field(default=(0,), metadata={"help": "base seeds of the runs"})
+    samples: int = field(default=DEFAULT_SAMPLES, metadata={"help": "sample budget of every run"})
+    workers: int = field(default=2, metadata={"help": "rollout workers per run"})
+    envs_per_worker: int = field(default=32, metadata={"help": "envs per worker"})
+    serial: bool = field(default=False, metadata={"help": "workers in this process, no Ray"})
+    device: str = field(default="cpu", metadata={"help": "torch device of the learner"})
+    batch_size: int | None = field(default=None, metadata={"help": "samples per PPO iteration (None: TrainConfig's, 4096)"})
+    minibatch_size: int | None = field(default=None, metadata={"help": "samples per gradient step (None: TrainConfig's, 256, at most the batch)"})
+    eval_every: int | None = field(default=None, metadata={"help": "samples between evaluations during training (None: budget / 10; 0: never)"})
+    eval_episodes: int | None = field(default=None, metadata={"help": "episodes per evaluation during training (None: TrainConfig's, 8)"})
+    final_episodes: int = field(default=32, metadata={"help": "episodes of the evaluation after training"})
+    physics_hz: float | None = field(default=None, metadata={"help": "physics rate (None: the env's default)"})
+    threshold: float = field(default=THRESHOLD, metadata={"help": "normalised return whose first crossing is reported"})
+    progress: bool = field(default=False, metadata={"help": "the trainer's progress bar on stderr"})
+
+    def resolved_eval_every(self) -> int:
+        return max(1, self.samples // EVAL_POINTS) if self.eval_every is None else self.eval_every
+
+
+@dataclass(frozen=True)
+class Cell:
+    skill: str  # the motion as given to TrainConfig (deepmimic:walk or a path)
+    clip: str  # short name for directories and labels
+    init: str
+    seed: int
+
+    @property
+    def name(self) -> str:
+        return f"{self.clip}_{self.init}_s{self.seed}"
+
+
+# ------------------------------------------------------------------------- flags
+def add_arguments(parser) -> None:
+    """The learning suite's own flags (`sfv bench` also has --envs-per-worker, --physics-hz, --seed, --quiet)."""
+    g = parser.add_argument_group("learning suite (--suite learning)")
+    g.add_argument("--out-dir", default=None, help="directory of learning.json, learning.png and runs/ (required for --suite learning)")
+    g.add_argument("--skills", default=None, help=f"comma-separated motions: deepmimic:<clip>, a bare clip name or a file (default {','.join(DEFAULT_SKILLS)})")
+    g.add_argument("--inits", default=None, help="comma-separated initial-state strategies of asi, rsi, fsi (default all three)")
+    g.add_argument("--seeds", default=None, help="comma-separated base seeds (default: --seed, 0)")
+    g.add_argument("--samples", default=None, help=f"sample budget per run: 600, 500k, 2M, 1e6 (default {DEFAULT_SAMPLES:,})")
+    g.add_argument("--workers", default=None, help="rollout workers per run (default 2)")
+    g.add_argument("--serial", action="store_true", default=None, help="run the workers in this process, without Ray (machines without Ray)")
+    g.add_argument("--eval-every", default=None, help=f"samples between evaluations during training (default budget / {EVAL_POINTS}; 0: never)")
+    g.add_argument("--eval-episodes", default=None, help="episodes per evaluation during training (default 8)")
+    g.add_argument("--batch-size", default=None, help="samples per PPO iteration (default 4096)")
+    g.add_argument("--minibatch-size", default=None, help="samples per gradient step (default 256, at most the batch)")
+    g.add_argument("--final-episodes", default=None, help="episodes of the evaluation after each run (default 32)")
+    g.add_argument("--device", default=None, help="torch device of the learner (default cpu)")
+
+
+def _count(flag: str, text, minimum: int = 1) -> int:
+    """'600', '500k', '2M', '1e6' -> int >= minimum; SfvError naming the flag otherwise."""
+    raw = str(text).strip()
+    scale = {"k": 1_000, "m": 1_000_000, "g": 1_000_000_000}.get(raw[-1:].lower(), 1)
+    body = raw[:-1] if scale > 1 else raw
+    try:
+        value = float(body.replace("_", "").replace(",", ""))
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value) or value * scale != round(value * scale):
+        raise SfvError(f"--{flag}: expected a whole number (600, 500k, 2M), got {raw!r}")
+    value = int(round(value * scale))
+    if value < minimum:
+        raise SfvError(f"--{flag} must be {'positive' if minimum == 1 else f'>= {minimum}'}, got {raw!r}")
+    return value
+
+
+def _names(flag: str, text: str) -> list[str]:
+    names = list(dict.fromkeys(part.strip() for part in str(text).split(",") if part.strip()))
+    if not names:
+        raise SfvError(f"--{flag}: empty list, got {text!r}")
+    return names
+
+
+def _skill(text: str) -> tuple[str, str]:
+    """A skill flag entry -> (motion for TrainConfig, short clip name); validates by loading it."""
+    from actors.motion_io import DEEPMIMIC_CLIPS, load_motion
+
+    motion = f"deepmimic:{text}" if text in DEEPMIMIC_CLIPS else text
+    try:
+        load_motion(motion)
+    except SfvError as exc:
+        raise SfvError(f"--skills {text!r}: {exc}") from None
+    if motion.startswith("deepmimic:"):
+        clip = motion.split(":", 1)[1]
+    else:
+        motion = str(Path(motion).resolve())
+        clip = Path(motion).stem
+    return motion, re.sub(r"[^A-Za-z0-9_.-]+", "-", clip) or "motion"
+
+
+def config_from_args(args) -> LearningConfig:
+    """Every learning flag checked (SfvError naming the flag), before anything is written."""
+    defaults = LearningConfig()
+    if not args.out_dir:
+        raise SfvError("--out-dir is required for --suite learning (learning.json, learning.png and runs/ go there)")
+    if getattr(args, "out", None) is not None:
+        raise SfvError("--out: the learning suite writes OUT_DIR/learning.json; give --out-dir instead")
+    inits = _names("inits", args.inits) if args.inits is not None else list(defaults.inits)
+    bad = [i for i in inits if i not in INITS]
+    if bad:
+        raise SfvError(f"--inits {bad[0]!r}: not an initial-state strategy; choose from {', '.join(INITS)}")
+    if args.seeds is not None:
+        seeds = [_count("seeds", s, minimum=0) for s in _names("seeds", args.seeds)]
+    else:
+        seeds = [getattr(args, "seed", 0) or 0]
+    config = LearningConfig(
+        out_dir=Path(args.out_dir), inits=tuple(inits), seeds=tuple(dict.fromkeys(seeds)),
+        samples=_count("samples", args.samples) if args.samples is not None else defaults.samples,
+        workers=_count("workers", args.workers) if args.workers is not None else defaults.workers,
+        envs_per_worker=_count("envs-per-worker", defaults.envs_per_worker if getattr(args, "envs_per_worker", None) is None
+                               else args.envs_per_worker),
+        serial=bool(args.serial), device=args.device or defaults.device,
+        batch_size=_count("batch-size", args.batch_size) if args.batch_size is not None else None,
+        minibatch_size=_count("minibatch-size", args.minibatch_size) if args.minibatch_size is not None else None,
+        eval_every=_count("eval-every", args.eval_every, minimum=0) if args.eval_every is not None else None,
+        eval_episodes=_count("eval-episodes", args.eval_episodes) if args.eval_episodes is not None else None,
+        final_episodes=_count("final-episodes", args.final_episodes) if args.final_episodes is not None else defaults.final_episodes,
+        physics_hz=getattr(args, "physics_hz", None),
+        progress=not getattr(args, "quiet", False) and sys.stderr.isatty(),
+    )
+    if config.physics_hz is not None and not config.physics_hz > 0:
+        raise SfvError(f"--physics-hz must be positive, got {config.physics_hz}")
+    skills = _names("skills", args.skills) if args.skills is not None else list(defaults.skills)
+    config.skills = tuple(dict.fromkeys(skills))
+    for cell in cells(config):  # loads every skill (unknown ones fail here) and checks every run's settings
+        train_config(config, cell)
+    return config
+
+
+def cells(config: LearningConfig) -> list[Cell]:
+    """The grid in run order: per skill and seed, the inits one after the other (a cut-short grid stays comparable)."""
+    resolved = [_skill(s) for s in config.skills]
+    clips: dict[str, str] = {}
+    for (motion, clip), text in zip(resolved, config.skills):
+        if clips.setdefault(clip, motion) != motion:
+            raise SfvError(f"--skills {text!r}: its run name {clip!r} is taken by {clips[clip]}; rename one of the files")
+    return [Cell(motion, clip, init, seed) for motion, clip in resolved for seed in config.seeds for init in config.inits]
+
+
+def train_config(config: LearningConfig, cell: Cell):
+    from actors.humanoid import PhysicsConfig
+    from services.train_config import TrainConfig
+
+    train = TrainConfig(motion=cell.skill, out=str(run_dir_of(config, cell)), workers=config.workers,
+                        envs_per_worker=config.envs_per_worker, init=cell.init, samples=config.samples, seed=cell.seed,
+                        serial=config.serial, device=config.device, eval_every=config.resolved_eval_every())
+    train.ppo = dataclasses.replace(train.ppo, seed=cell.seed)
+    if config.eval_episodes is not None:
+        train.eval_episodes = config.eval_episodes
+    if config.batch_size is not None:
+        train.ppo.batch_size = config.batch_size
+        if config.minibatch_size is None:
+            train.ppo.minibatch_size = min(train.ppo.minibatch_size, config.batch_size)
+    if config.minibatch_size is not None:
+        if config.minibatch_size > train.ppo.batch_size:
+            raise SfvError(f"--minibatch-size {config.minibatch_size} exceeds the batch size {train.ppo.batch_size}")
+        train.ppo.minibatch_size = config.minibatch_size
+    if config.physics_hz is not None:
+        train.env = dataclasses.replace(train.env, physics=PhysicsConfig(physics_hz=config.physics_hz))
+        try:
+            train.env.substeps  # noqa: B018  a rate that is no multiple of the control rate
+        except ValueError as exc:
+            raise SfvError(f"--physics-hz: {exc}") from None
+    train.validate()  # names the flag: --workers must be positive, ...
+    return train
+
+
+def run_dir_of(config: LearningConfig, cell: Cell) -> Path:
+    return Path(config.out_dir) / RUNS_DIR / cell.name
+
+
+def _dig(d: dict, path: tuple[str, ...]):
+    for key in path:
+        if not isinstance(d, dict):
+            return None
+        d = d.get(key)
+    return d
+
+
+def check_existing(config: LearningConfig, grid: list[Cell]) -> dict:
+    """The results so far (a fresh document when there is none); SfvError if a run directory holds another run."""
+    from services.run_dir import CONFIG_FILE
+
+    for cell in grid:
+        saved_path = run_dir_of(config, cell) / CONFIG_FILE
+        if not saved_path.is_file():
+            continue
+        try:
+            saved = json.loads(saved_path.read_text())
+        except (OSError, ValueError) as exc:
+            raise SfvError(f"{saved_path}: unreadable ({exc}); remove the run directory to retrain it") from None
+        wanted = train_config(config, cell).to_dict()
+        for key, path in IDENTITY.items():
+            if _dig(saved, path) != _dig(wanted, path):
+                raise SfvError(f"{saved_path.parent}: trained with {key} {_dig(saved, path)!r}, this run asks for "
+                               f"{_dig(wanted, path)!r}; use another --out-dir")
+    path = Path(config.out_dir) / RESULTS_FILE
+    if not path.exists():
+        return {"format": FORMAT, "runs": {}}
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise SfvError(f"{path}: unreadable ({exc}); move it away to start afresh") from None
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT or not isinstance(doc.get("runs"), dict):
+        raise SfvError(f"{path}: not a learning-suite result (format {FORMAT}); move it away or use another --out-dir")
+    return doc
+
+
+# ---------------------------------------------------------------------- the runs
+def config_summary(config: LearningConfig, train) -> dict:
+    return {"motion": train.motion, "init": train.init, "seed": train.seed, "samples": train.samples,
+            "workers": train.workers, "envs_per_worker": train.envs_per_worker, "serial": train.serial,
+            "device": train.device, "batch_size": train.ppo.batch_size, "minibatch_size": train.ppo.minibatch_size,
+            "update_epochs": train.ppo.update_epochs, "policy_lr": train.ppo.policy_lr,
+            "physics_hz": train.env.physics.physics_hz, "control_hz": train.env.control_hz,
+            "eval_every": getattr(train, "eval_every", None), "eval_episodes": getattr(train, "eval_episodes", None),
+            "final_episodes": config.final_episodes}
+
+
+def read_curve(run_dir: Path) -> dict:
+    """Training and evaluation curves from the run's metrics.jsonl (an eval row may be its own line or part of an iteration's)."""
+    from services.run_dir import read_metrics
+
+    train = {"samples": [], "normalized_return": [], "fall_rate": [], "episode_length": []}
+    evals: list[dict] = []
+    for row in read_metrics(run_dir):
+        if "samples" not in row:
+            continue
+        if row.get("normalized_return") is not None:
+            for key in train:
+                train[key].append(row.get(key))
+        picked = {k: v for k, v in row.items() if k.startswith("eval/")}
+        if picked.get("eval/normalized_return") is not None:
+            evals.append({"samples": row["samples"], **picked})
+    keys = ["samples"] + sorted({k for e in evals for k in e if k != "samples"})
+    return {"train": train, "eval": {k: [e.get(k) for e in evals] for k in keys}}
+
+
+def samples_to_threshold(curve: dict, final_samples: int, final_nr, threshold: float) -> tuple[int | None, str]:
+    """First sample count at which NR >= threshold: eval rows where there are any, else the smoothed
+    training curve; the final evaluation counts as a last point either way."""
+    from services.plotting import smooth
+
+    import numpy as np
+
+    if curve["eval"].get("samples"):
+        points = list(zip(curve["eval"]["samples"], curve["eval"]["eval/normalized_return"]))
+        source = "eval"
+    else:
+        train = curve["train"]
+        values = smooth(np.asarray(train["normalized_return"], dtype=np.float64), SMOOTHING) if train["samples"] else []
+        points = list(zip(train["samples"], (float(v) for v in values)))
+        source = "train_smoothed"
+    if final_nr is not None:
+        points.append((final_samples, final_nr))
+    for samples, value in points:
+        if value is not None and value >= threshold:
+            return int(samples), source
+    return None, source
+
+
+def run_grid(config: LearningConfig, grid: list[Cell], doc: dict, command: str | None, log, emit) -> tuple[dict, int]:
+    """Train, evaluate and record every cell not yet complete; returns the document written and how many runs failed."""
+    from services.bench.runner import machine
+
+    out_dir = Path(config.out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    now = _now()
+    doc.setdefault("created", now)
+    info = machine()
+    doc.update(format=FORMAT, command=command, updated=now, machine=info, threshold=config.threshold)
+    started_ray = False
+    if not config.serial:
+        started_ray = _start_ray(config.workers)
+    failures = 0
+    try:
+        for cell in grid:
+            entry = doc["runs"].get(cell.name)
+            if entry and entry.get("status") == "complete" and entry.get("config", {}).get("samples", 0) >= config.samples:
+                log(f"{cell.name}: complete in {RESULTS_FILE} ({entry.get('samples')} samples), skipped")
+                continue
+            entry = _run_cell(config, cell, entry, doc, info, log)
+            if entry["status"] == "complete":
+                emit(result_line(entry))
+            else:
+                failures += 1
+                emit(f"{cell.skill} {cell.init} seed {cell.seed}: FAILED: {entry.get('error')}")
+    finally:
+        if started_ray:
+            import ray
+
+            ray.shutdown()
+    _plot_safely(doc, out_dir / PLOT_FILE, config.skills, log)
+    return doc, failures
+
+
+def _run_cell(config: LearningConfig, cell: Cell, previous: dict | None, doc: dict, info: dict, log) -> dict:
+    from services.evaluate import evaluate_run
+    from services.run_dir import checkpoint_files
+    from services.trainer import Trainer
+
+    run_dir = run_dir_of(config, cell)
+    train = train_config(config, cell)
+    resume = bool(checkpoint_files(run_dir))
+    if not resume:
+        _clear_unfinished(run_dir)  # killed before its first checkpoint: start clean, no stale metrics rows
+    earlier_wall = float((previous or {}).get("wall_s") or 0.0) if resume else 0.0
+    resumes = int((previous or {}).get("resumes") or 0) + (1 if resume else 0)
+    entry = {"name": cell.name, "skill": cell.skill, "init": cell.init, "seed": cell.seed,
+             "run_dir": str(Path(RUNS_DIR) / cell.name), "config": config_summary(config, train),
+             "resumes": resumes, "machine": info}
+    log(f"{cell.name}: {'resuming from its newest checkpoint' if resume else 'training'} to {config.samples:,} samples")
+    trainer = Trainer(train, resume=resume, progress=config.progress)
+    start = time.perf_counter()
+    try:
+        trainer.run()
+    except Exception as exc:  # one run's fault (non-finite update, dead workers): record it, go on with the grid
+        log(traceback.format_exc().rstrip())
+        entry.update(status="failed", error=str(exc).splitlines()[0][:500] if str(exc) else type(exc).__name__,
+                     samples=trainer.samples, wall_s=earlier_wall + time.perf_counter() - start, finished=_now())
+        _save(doc, cell, entry, config)
+        return entry
+    except BaseException:  # interrupted: keep the time spent so the resumed run's wall time adds up
+        entry.update(status="incomplete", samples=trainer.samples, wall_s=earlier_wall + time.perf_counter() - start)
+        _save(doc, cell, entry, config)
+        raise
+    finally:
+        gc.collect()  # drop the run's workers (Ray actor handles) before the next run
+    wall = earlier_wall + time.perf_counter() - start
+    entry.update(samples=int(trainer.samples), wall_s=wall)
+    start = time.perf_counter()
+    try:
+        evaluation = evaluate_run(run_dir, episodes=config.final_episodes)
+    except Exception as exc:  # trained, not evaluated: a rerun resumes (nothing left to train) and evaluates again
+        log(traceback.format_exc().rstrip())
+        entry.update(status="failed", error=f"evaluation: {str(exc).splitlines()[0][:500] if str(exc) else type(exc).__name__}",
+                     finished=_now())
+        _save(doc, cell, entry, config)
+        return entry
+    eval_s = time.perf_counter() - start
+    curve = read_curve(run_dir)
+    reached, source = samples_to_threshold(curve, trainer.samples, evaluation.get("normalized_return"), config.threshold)
+    entry.update(status="complete", samples=int(trainer.samples), wall_s=wall, eval_s=eval_s,
+                 samples_per_s=trainer.samples / max(wall, 1e-9), finished=_now(), eval=_plain(evaluation),
+                 curve=curve, samples_to_threshold=reached, threshold_source=source)
+    _save(doc, cell, entry, config)
+    return entry
+
+
+def _clear_unfinished(run_dir: Path) -> None:
+    from services.run_dir import CONFIG_FILE, METRICS_FILE
+
+    for name in (METRICS_FILE, CONFIG_FILE, "learning_curve.png"):
+        (run_dir / name).unlink(missing_ok=True)
+    shutil.rmtree(run_dir / "tb", ignore_errors=True)
+
+
+def _save(doc: dict, cell: Cell, entry: dict, config: LearningConfig) -> None:
+    from services.run_dir import write_json_atomic
+
+    doc["runs"][cell.name] = entry
+    doc["updated"] = _now()
+    write_json_atomic(Path(config.out_dir) / RESULTS_FILE, doc)
+
+
+def _start_ray(workers: int) -> bool:
+    import ray
+
+    if ray.is_initialized():
+        return False
+    # address="local": a private single-node Ray, never a cluster someone else started here.
+    ray.init(address="local", num_cpus=workers, include_dashboard=False, log_to_driver=False, configure_logging=False)
+    return True
+
+
+def _plain(value):
+    """JSON-safe copy: numpy scalars and arrays to Python, NaN/inf to None."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if hasattr(value, "tolist"):
+        return _plain(value.tolist())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _now() -> str:
+    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+
+
+# ---------------------------------------------------------------------- reports
+def _fmt(value, spec: str = ".3f") -> str:
+    return "-" if value is None else format(value, spec)
+
+
+def result_line(entry: dict) -> str:
+    ev = entry.get("eval", {})
+    return (f"{entry['skill']} {entry['init']} seed {entry['seed']}: {entry['samples']:,} samples in "
+            f"{entry['wall_s'] / 60:.1f} min, eval NR {_fmt(ev.get('normalized_return'))}, "
+            f"fall rate {_fmt(ev.get('fall_rate'), '.2f')}")
+
+
+def _ordered_skills(doc: dict, skills=()) -> list[str]:
+    seen = [s for s in skills if any(e.get("skill") == s for e in doc["runs"].values())]
+    for entry in doc["runs"].values():
+        if entry.get("skill") not in seen:
+            seen.append(entry.get("skill"))
+    return seen
+
+
+def _complete(doc: dict, skill: str) -> list[dict]:
+    runs = [e for e in doc["runs"].values() if e.get("skill") == skill and e.get("status") == "complete"]
+    return sorted(runs, key=lambda e: (INITS.index(e["init"]) if e["init"] in INITS else 9, e["seed"]))
+
+
+def markdown_table(doc: dict, skills=()) -> str:
+    """skill x init: mean over seeds of the final eval NR and fall rate, and the samples to reach the threshold."""
+    threshold = doc.get("threshold", THRESHOLD)
+    lines = [f"| skill | init | seeds | samples | eval NR | fall rate | samples to NR {threshold:g} |",
+             "|---|---|---:|---:|---:|---:|---:|"]
+    for skill in _ordered_skills(doc, skills):
+        runs = _complete(doc, skill)
+        for init in dict.fromkeys(e["init"] for e in runs):
+            group = [e for e in runs if e["init"] == init]
+            nr = _mean([e["eval"].get("normalized_return") for e in group])
+            fall = _mean([e["eval"].get("fall_rate") for e in group])
+            reached = sorted(e["samples_to_threshold"] for e in group if e.get("samples_to_threshold") is not None)
+            if not reached:
+                to = "not reached"
+            else:
+                to = f"{reached[len(reached) // 2]:,}" + ("" if len(reached) == len(group) else f" ({len(reached)}/{len(group)} seeds)")
+            samples = max(e["samples"] for e in group)
+            lines.append(f"| {skill} | {init} | {len(group)} | {samples:,} | {_fmt(nr)} | {_fmt(fall, '.2f')} | {to} |")
+    return "\n".join(lines)
+
+
+def _mean(values):
+    values = [v for v in values if v is not None]
+    return sum(values) / len(values) if values else None
+
+
+def plot(doc: dict, out: Path, skills=()) -> Path:
+    """One panel per skill: eval NR against samples (the smoothed training NR where a run has no eval rows), one line per init and seed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from matplotlib.ticker import EngFormatter
+
+    from services.plotting import INIT_COLOURS, LINE_STYLES, save_figure, smooth
+
+    names = _ordered_skills(doc, skills) or ["no runs"]
+    ncols = min(2, len(names))
+    nrows = -(-len(names) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(6.2 * ncols, 3.9 * nrows), dpi=120, squeeze=False)
+    threshold = doc.get("threshold", THRESHOLD)
+    for ax, skill in zip(axes.flat, names):
+        runs = _complete(doc, skill)
+        seeds = sorted({e["seed"] for e in runs})
+        highest = 0.0
+        for entry in runs:
+            colour = INIT_COLOURS.get(entry["init"], "tab:gray")
+            style = LINE_STYLES[seeds.index(entry["seed"]) % len(LINE_STYLES)]
+            label = f"{entry['init'].upper()} s{entry['seed']}"
+            ev = entry["curve"]["eval"]
+            if ev.get("samples"):
+                xs = np.asarray(ev["samples"], dtype=np.float64)
+                ys = np.asarray([np.nan if v is None else v for v in ev["eval/normalized_return"]], dtype=np.float64)
+                ax.plot(xs, ys, color=colour, linestyle=style, linewidth=2, marker="o", markersize=3, label=label)
+            else:
+                tr = entry["curve"]["train"]
+                xs = np.asarray(tr["samples"], dtype=np.float64)
+                ys = np.asarray(tr["normalized_return"], dtype=np.float64)
+                label += " (training NR)"
+                if len(xs) > 1:
+                    ax.plot(xs, ys, color=colour, alpha=0.25, linewidth=1)
+                    ax.plot(xs, smooth(ys, SMOOTHING), color=colour, linestyle=style, linewidth=2, label=label)
+                elif len(xs):
+                    ax.plot(xs, ys, color=colour, linestyle=style, linewidth=2, marker="o", label=label)
+                else:
+                    ax.plot([], [], color=colour, linestyle=style, label=f"{label}: no episodes")
+            final = entry["eval"].get("normalized_return")
+            if final is not None:  # the evaluation after training, as a hollow marker at the end
+                ax.plot([entry["samples"]], [final], color=colour, marker="D", markerfacecolor="none", linestyle="none")
+            finite = ys[np.isfinite(ys)]
+            highest = max(highest, float(finite.max()) if len(finite) else 0.0, final or 0.0)
+        top = 1.0 if highest > 0.5 else max(0.02, 1.25 * highest)
+        if threshold <= top:
+            ax.axhline(threshold, color="gray", linestyle=":", linewidth=1)
+        ax.set_ylim(0, top)
+        ax.set_title(skill)
+        ax.set_xlabel("samples")
+        ax.xaxis.set_major_formatter(EngFormatter())
+        ax.set_ylabel("normalised return")
+        ax.grid(alpha=0.3)
+        if runs:
+            ax.legend(loc="lower right", fontsize=8, framealpha=0.8, title="init seed (eval; diamond: final)", title_fontsize=8)
+    for ax in list(axes.flat)[len(names):]:
+        ax.axis("off")
+    fig.suptitle("Learning: normalised return against samples")
+    return save_figure(fig, out)
+
+
+def _plot_safely(doc: dict, out: Path, skills, log) -> None:
+    try:
+        plot(doc, out, skills)
+    except Exception as exc:  # the figures are in learning.json; a plot must not lose them
+        log(f"learning.png not drawn: {exc}")
+
+
+# -------------------------------------------------------------------- the command
+def command_line(config: LearningConfig) -> str:
+    parts = ["sfv", "bench", "--suite", "learning", "--out-dir", str(config.out_dir), "--skills", ",".join(config.skills),
+             "--inits", ",".join(config.inits), "--seeds", ",".join(map(str, config.seeds)), "--samples", str(config.samples),
+             "--workers", str(config.workers), "--envs-per-worker", str(config.envs_per_worker)]
+    if config.serial:
+        parts.append("--serial")
+    for flag, value in (("--batch-size", config.batch_size), ("--minibatch-size", config.minibatch_size),
+                        ("--eval-every", config.eval_every), ("--eval-episodes", config.eval_episodes), ("--physics-hz", _non_default_physics_hz(config))):
+        if value is not None:
+            parts += [flag, f"{value:g}" if isinstance(value, float) else str(value)]
+    if config.final_episodes != LearningConfig().final_episodes:
+        parts += ["--final-episodes", str(config.final_episodes)]
+    if config.device != "cpu":
+        parts += ["--device", config.device]
+    return " ".join(shlex.quote(p) for p in parts)
+
+
+def _non_default_physics_hz(config: LearningConfig) -> float | None:
+    from actors.humanoid import PhysicsConfig
+
+    return None if config.physics_hz in (None, PhysicsConfig().physics_hz) else config.physics_hz
+
+
+def run_learning_command(args) -> int:
+    """`sfv bench --suite learning ...`: 0 when every run completed, 1 when one failed, 2 (SfvError) for bad flags."""
+    config = config_from_args(args)
+    grid = cells(config)
+    doc = check_existing(config, grid)
+    quiet = getattr(args, "quiet", False)
+    log = (lambda message: None) if quiet else (lambda message: print(message, file=sys.stderr, flush=True))
+    emit = lambda line: print(line, flush=True)  # noqa: E731
+    doc, failures = run_grid(config, grid, doc, command_line(config), log, emit)
+    print()
+    print(markdown_table(doc, config.skills))
+    print(f"\nwritten to {Path(config.out_dir) / RESULTS_FILE} and {Path(config.out_dir) / PLOT_FILE}")
+    return 1 if failures else 0
