@@ -18,8 +18,14 @@ from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.motion import ReferenceMotion
 from actors.skeleton import JOINT_IS_SPHERICAL, JOINT_NAMES, LINK_NAMES
 from services.cli import main
-from services.evaluate import (DEFAULT_EPISODES, PUSH_RECOVERY_S, TrainingEvaluator, evaluate_policy, make_eval_env,
-                               tracking_errors)
+from services.evaluate import (
+    DEFAULT_EPISODES,
+    PUSH_RECOVERY_S,
+    TrainingEvaluator,
+    evaluate_policy,
+    make_eval_env,
+    tracking_errors,
+)
 
 STAND_HEIGHT = 0.885  # root height at which the rest pose's feet just touch the floor
 REVOLUTE_NAMES = [n for n, s in zip(JOINT_NAMES, JOINT_IS_SPHERICAL) if not s]
@@ -267,7 +273,10 @@ def stand_run(tmp_path_factory):
     """A run directory on the standing clip with a real (untrained, small) checkpoint."""
     import torch
 
-    from actors.features import OBS_DIM
+    from actors.features import observation_dim
+    from actors.imitation_env import EnvConfig
+
+    OBS_DIM = observation_dim(len(EnvConfig().reference_obs_steps))
     from actors.motion_io import save_motion
     from learner.checkpoint import checkpoint_path, save_checkpoint
     from learner.ppo import PPOLearner
@@ -367,7 +376,10 @@ def test_training_evaluates_when_the_sample_count_crosses_eval_every_and_at_the_
 
 def test_training_evaluator_uses_the_current_weights(stand):
     """The evaluator reloads the policy it is given each time (a stale policy would score alike)."""
-    from actors.features import OBS_DIM
+    from actors.features import observation_dim
+    from actors.imitation_env import EnvConfig
+
+    OBS_DIM = observation_dim(len(EnvConfig().reference_obs_steps))
     from services.train_config import TrainConfig
 
     def weights(bias_knee: float) -> dict:
@@ -392,7 +404,10 @@ def test_training_evaluator_uses_the_current_weights(stand):
 def test_blas_threads_are_given_back_after_an_evaluation(stand):
     from threadpoolctl import threadpool_info
 
-    from actors.features import OBS_DIM
+    from actors.features import observation_dim
+    from actors.imitation_env import EnvConfig
+
+    OBS_DIM = observation_dim(len(EnvConfig().reference_obs_steps))
     from services.train_config import TrainConfig
 
     before = [(p["internal_api"], p["num_threads"]) for p in threadpool_info()]

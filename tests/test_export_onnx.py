@@ -16,13 +16,16 @@ import numpy as np
 import pytest
 import torch
 
-from actors.features import OBS_DIM
+from actors.features import observation_dim
+from actors.imitation_env import EnvConfig
 from learner.checkpoint import checkpoint_path, save_checkpoint
 from learner.onnx_export import OnnxPolicy
 from learner.ppo import PPOLearner
 from services.cli import main
 from services.run_dir import CONFIG_FILE, METRICS_FILE
 from services.train_config import TrainConfig
+
+OBS_DIM = observation_dim(len(EnvConfig().reference_obs_steps))  # the default env's observation
 
 REPO = Path(__file__).resolve().parents[1]
 ACT_DIM = 28  # the default exp-map (residual) actions: 8 ball joints x 3 + 4 hinges

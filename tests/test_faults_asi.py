@@ -15,7 +15,7 @@ import pytest
 
 from actors.asi_client import ASIClient
 from actors.errors import SfvError
-from actors.features import OBS_DIM
+from actors.features import observation_dim
 from actors.imitation_env import EnvConfig
 from actors.motion_io import load_motion
 from actors.rollout_worker import RolloutWorker, WorkerSpec
@@ -29,6 +29,8 @@ from services.trainer import Trainer
 from tests.asi_helpers import ServerProcess
 from tests.redis_fixture import free_port
 from tests.test_faults_support import TINY_RUN, TrainProcess, wait_for
+
+OBS_DIM = observation_dim(len(EnvConfig().reference_obs_steps))  # the default env's observation
 
 pytestmark = pytest.mark.integration
 

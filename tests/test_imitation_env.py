@@ -171,7 +171,8 @@ def test_root_yaw_changes_pose_but_not_heading_frame_end_effectors(paper_env):
 # ---------------------------------------------------------------------- observation
 def test_observation_shape_range_and_phase(env):
     obs, info = env.reset(seed=3)
-    assert env.observation_space.shape == (197,) and obs.shape == (197,) and obs.dtype == np.float32
+    # 197 state features of SFV, then 2 reference roots x (3 + 4) before the phase.
+    assert env.observation_space.shape == (211,) and obs.shape == (211,) and obs.dtype == np.float32
     assert np.isfinite(obs).all()
     assert obs[-1] == pytest.approx(info["phase"]) and 0.0 <= obs[-1] <= 1.0
     assert obs[0] == pytest.approx(env.data.qpos[2], abs=1e-6)  # root height
@@ -200,6 +201,26 @@ def test_observation_is_invariant_to_heading_and_horizontal_position(env):
     env.data.qpos[3:7] = qn.quat_mul(env.data.qpos[3:7], qn.quat_about_axis(0.3, np.array([0.0, 1.0, 0.0])))
     update_kinematics(env.model, env.data)
     assert np.abs(env.features.observation(env.data, 0.5, np.zeros(197)) - before).max() > 0.05
+
+
+def test_observation_shows_where_the_reference_root_is(env):
+    """The reference roots 1 and 15 steps ahead, relative to the character's root in its
+    heading frame: computed here from the track with quaternion maths, not the extractor's."""
+    row = 9
+    obs, _ = env.reset(seed=0, options={"init": "rsi", "phase": env.track.phase[row]})
+    assert env.row == row
+    root, rot = env.data.qpos[:3].copy(), env.data.qpos[3:7].copy()
+    yaw = np.arctan2(2 * (rot[0] * rot[3] + rot[1] * rot[2]), 1 - 2 * (rot[2] ** 2 + rot[3] ** 2))
+    inverse = qn.quat_about_axis(-yaw, Z)
+    for i, k in enumerate((1, 15)):
+        target = env.track.qpos[row + k]
+        expected_pos = qn.quat_rotate(inverse, target[:3] - root)
+        expected_rot = qn.quat_mul(inverse, target[3:7])
+        expected_rot = expected_rot * np.sign(expected_rot[0])
+        np.testing.assert_allclose(obs[196 + 3 * i:199 + 3 * i], expected_pos, atol=1e-5)
+        np.testing.assert_allclose(obs[202 + 4 * i:206 + 4 * i], expected_rot, atol=1e-5)
+    # 15 steps (0.5 s) of walking put the reference root ahead along the heading.
+    assert obs[199] > 0.3 and abs(obs[200]) < 0.15
 
 
 # ---------------------------------------------------------------- termination, horizon

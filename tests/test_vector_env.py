@@ -29,7 +29,7 @@ def replay_episodes(venv, steps, rng):
     for _ in range(steps):
         before = venv.obs.copy()
         obs, rewards, terminated, truncated, final_obs = venv.step(rng.uniform(-1, 1, (venv.num_envs, venv.action_dim)))
-        assert obs.shape == final_obs.shape == (venv.num_envs, 197) and rewards.shape == (venv.num_envs,)
+        assert obs.shape == final_obs.shape == (venv.num_envs, venv.obs_dim) and rewards.shape == (venv.num_envs,)
         assert np.isfinite(obs).all() and np.isfinite(final_obs).all()
         for i in range(venv.num_envs):
             running[i].append(float(rewards[i]))
@@ -48,7 +48,7 @@ def test_reference_starts_auto_reset_and_episode_records(walk):
     starts = BufferedStarts(ReferenceStarts("rsi", np.random.default_rng(0)), batch=4)
     venv = VectorImitationEnv(walk, config, num_envs=3, starts=starts, seed=11, gamma=GAMMA)
     obs = venv.reset()
-    assert obs.shape == (3, 197) and obs.dtype == np.float32 and np.isfinite(obs).all()
+    assert obs.shape == (3, 211) and obs.dtype == np.float32 and np.isfinite(obs).all()
     assert venv.action_dim == 28 and venv.state_dim == venv.envs[0].state_dim  # exp-map actions: 8 x 3 + 4
     assert len({round(float(p), 6) for p in obs[:, -1]}) == 3, "three different RSI phases"
 

@@ -47,7 +47,7 @@ def register(sub) -> None:
     p.add_argument("--reference-obs", type=_steps, default=None, metavar="K,K",
                    help="control steps ahead at which the policy observes the reference root (e.g. 1,15); 'none' for SFV's observation")
     p.add_argument("--asi-std-scale", type=_positive(float), default=None,
-                   help="initial std of each ASI component as a multiple of the clip's per-dimension std (paper: 1)")
+                   help="initial std of each ASI component as a multiple of the clip's per-dimension std (default 0.25; paper: 1)")
     p.add_argument("--state-space", choices=("rotvec", "qpos"), default=None,
                    help="coordinates ASI's Gaussians live in (default rotvec; qpos: SFV's raw qpos + qvel)")
     p.add_argument("--curriculum-start-s", type=float, default=None,
