@@ -69,7 +69,7 @@ IDENTITY = {"motion": ("motion",), "init": ("init",), "seed": ("seed",), "batch_
             "minibatch_size": ("ppo", "minibatch_size"), "physics_hz": ("env", "physics", "physics_hz")}
 # Flags only the learning suite reads (argparse dest names); None when not given.
 LEARNING_FLAGS = ("out_dir", "skills", "inits", "seeds", "samples", "workers", "serial", "eval_every", "eval_episodes",
-                  "batch_size", "minibatch_size", "final_episodes", "device")
+                  "batch_size", "minibatch_size", "final_episodes", "device", "torch_threads")
 
 
 @dataclass
@@ -83,6 +83,7 @@ class LearningConfig:
     envs_per_worker: int = field(default=32, metadata={"help": "envs per worker"})
     serial: bool = field(default=False, metadata={"help": "workers in this process, no Ray"})
     device: str = field(default="cpu", metadata={"help": "torch device of the learner"})
+    torch_threads: int = field(default=0, metadata={"help": "learner's torch threads (0: every core; 1 when two grids share a 2-core machine)"})
     batch_size: int | None = field(default=None, metadata={"help": "samples per PPO iteration (None: TrainConfig's, 4096)"})
     minibatch_size: int | None = field(default=None, metadata={"help": "samples per gradient step (None: TrainConfig's, 256, at most the batch)"})
     eval_every: int | None = field(default=None, metadata={"help": "samples between evaluations during training (None: budget / 10; 0: never)"})
@@ -125,6 +126,7 @@ def add_arguments(parser) -> None:
     g.add_argument("--minibatch-size", default=None, help="samples per gradient step (default 256, at most the batch)")
     g.add_argument("--final-episodes", default=None, help="episodes of the evaluation after each run (default 32)")
     g.add_argument("--device", default=None, help="torch device of the learner (default cpu)")
+    g.add_argument("--torch-threads", default=None, help="learner's torch threads (default 0: every core; give 1 when two grids share the cores)")
 
 
 def _count(flag: str, text, minimum: int = 1) -> int:
@@ -190,6 +192,7 @@ def config_from_args(args) -> LearningConfig:
         envs_per_worker=_count("envs-per-worker", defaults.envs_per_worker if getattr(args, "envs_per_worker", None) is None
                                else args.envs_per_worker),
         serial=bool(args.serial), device=args.device or defaults.device,
+        torch_threads=_count("torch-threads", args.torch_threads, minimum=0) if args.torch_threads is not None else defaults.torch_threads,
         batch_size=_count("batch-size", args.batch_size) if args.batch_size is not None else None,
         minibatch_size=_count("minibatch-size", args.minibatch_size) if args.minibatch_size is not None else None,
         eval_every=_count("eval-every", args.eval_every, minimum=0) if args.eval_every is not None else None,
@@ -223,7 +226,8 @@ def train_config(config: LearningConfig, cell: Cell):
 
     train = TrainConfig(motion=cell.skill, out=str(run_dir_of(config, cell)), workers=config.workers,
                         envs_per_worker=config.envs_per_worker, init=cell.init, samples=config.samples, seed=cell.seed,
-                        serial=config.serial, device=config.device, eval_every=config.resolved_eval_every())
+                        serial=config.serial, device=config.device, eval_every=config.resolved_eval_every(),
+                        torch_threads=config.torch_threads)
     train.ppo = dataclasses.replace(train.ppo, seed=cell.seed)
     if config.eval_episodes is not None:
         train.eval_episodes = config.eval_episodes
@@ -606,6 +610,8 @@ def command_line(config: LearningConfig) -> str:
         parts += ["--final-episodes", str(config.final_episodes)]
     if config.device != "cpu":
         parts += ["--device", config.device]
+    if config.torch_threads:
+        parts += ["--torch-threads", str(config.torch_threads)]
     return " ".join(shlex.quote(p) for p in parts)
 
 
