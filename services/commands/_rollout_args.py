@@ -6,4 +6,4 @@ def add_rollout_args(p) -> None:
     p.add_argument("--episodes", type=int, default=1, help="episodes to roll out, one after another")
     p.add_argument("--seconds", type=float, default=None, help="cap on each episode's length in seconds")
     p.add_argument("--init", choices=("fsi", "rsi"), default="fsi", help="start at the clip's first frame or a random one")
-    p.add_argument("--seed", type=int, default=0, help="episode k uses seed + k (as sfv eval)")
+    p.add_argument("--seed", type=int, default=0, help="episode k uses seed + k (pushes too)")

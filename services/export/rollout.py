@@ -2,8 +2,9 @@
 
 `episode_steps` is a generator: it yields once after reset and once after every control
 step, so a caller can look at (render, record) or act on (push) `env.data` in between.
-Episode k resets with seed `seed + k` and the given init, as `services.evaluate` does, so a
-rendered or exported episode is the one `sfv eval` scores.
+Episode k resets with seed `seed + k` and the given init (FSI or RSI) and ends where the env's
+own termination ends it. `sfv eval` scores differently on purpose: episodes at evenly spaced
+phases and the strict fall rule whatever the training's termination (`services/evaluate.py`).
 """
 from __future__ import annotations
 

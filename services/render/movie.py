@@ -34,7 +34,7 @@ class RenderConfig:
     episodes: int = field(default=1, metadata={"help": "episodes filmed one after another"})
     seconds: float | None = field(default=None, metadata={"help": "cap on each episode's length (default: the env's horizon)"})
     init: str = field(default="fsi", metadata={"help": "episode start: fsi (clip start) or rsi (random frame)"})
-    seed: int = field(default=0, metadata={"help": "episode k resets with seed + k (as `sfv eval`); pushes use it too"})
+    seed: int = field(default=0, metadata={"help": "episode k resets with seed + k; pushes use it too"})
     ghost: bool = field(default=True, metadata={"help": "draw the reference motion as a translucent ghost"})
     ghost_offset: tuple = field(default=(0.0, 1.0, 0.0), metadata={"help": "world offset (m) of the ghost from the reference pose; +y puts it beside a character walking along +x"})
     ghost_rgba: tuple = field(default=(0.2, 0.5, 1.0, 0.45), metadata={"help": "ghost colour and opacity"})
