@@ -51,7 +51,7 @@ def register(sub) -> None:
     p.add_argument("--state-space", choices=("rotvec", "qpos"), default=None,
                    help="coordinates ASI's Gaussians live in (default rotvec; qpos: SFV's raw qpos + qvel)")
     p.add_argument("--curriculum-start-s", type=float, default=None,
-                   help="episode-length curriculum: first episodes capped at this many seconds, growing to the horizon (0: off, the default)")
+                   help="episode-length curriculum: first episodes capped at this many seconds, growing to the horizon over --curriculum-samples (default 0.5 s over 1 M; 0: off)")
     p.add_argument("--curriculum-samples", type=_positive(int), default=None, help="samples over which the curriculum reaches the horizon")
     p.add_argument("--no-root-sync", action="store_true", help="do not re-synchronise the reference root to the character each cycle")
     p.add_argument("--eval-every", type=int, default=None, help="samples between evaluations during training (default 500000; 0: never)")
