@@ -28,8 +28,8 @@ POISONS = {
 
 def poisoned_worker(array: str, value: float, at_version: int = 1):
     class PoisonedWorker(RolloutWorker):
-        def sample(self, weights, policy_version, steps):
-            batch = super().sample(weights, policy_version, steps)
+        def sample(self, weights, policy_version, steps, **options):
+            batch = super().sample(weights, policy_version, steps, **options)
             if policy_version == at_version:
                 target = batch[array]
                 target[(steps // 2, 0) + (0,) * (target.ndim - 2)] = value  # one entry of env 0's middle step
