@@ -147,6 +147,7 @@ class Humanoid:
         joint_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, LINKS[i].name) for i in JOINT_LINKS]
         self.joint_qpos_adr = m.jnt_qposadr[joint_ids].copy()
         self.joint_dof_adr = m.jnt_dofadr[joint_ids].copy()
+        # Torso and head geoms (the facts file's flag); episodes use the per-clip rule of actors/falls.py.
         self.fall_geom_ids = np.array([m.body_geomadr[self.body_ids[i]] for i in FALL_CONTACT_LINKS])
         # MuJoCo numbers bodies depth-first, so the 15 links are bodies 1..15 (a contiguous
         # slice of xpos / xquat / cvel) in an order other than the skeleton's.

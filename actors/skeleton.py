@@ -42,7 +42,7 @@ class Link:
     # sphere: (radius,); capsule: (radius, cylinder length); box: full extents (x, y, z) Y-up.
     # DeepMimic's Param0 of spheres and capsules is a diameter: the radii here are half of it.
     size: tuple
-    fall_contact: bool  # touching the ground with this link ends the episode
+    fall_contact: bool  # torso or head (the facts file's flag); the episode's fall rule is per clip: actors/falls.py
 
 
 LINKS: tuple[Link, ...] = (
@@ -82,7 +82,7 @@ LINK_JOINT = np.array([JOINT_LINKS.index(i) if i in JOINT_LINKS else -1 for i in
 HINGE_AXIS = yup_to_zup((0.0, 0.0, 1.0))
 
 END_EFFECTOR_LINKS = np.array([i for i, link in enumerate(LINKS) if link.end_effector])  # ankles, wrists
-FALL_CONTACT_LINKS = np.array([i for i, link in enumerate(LINKS) if link.fall_contact])  # root, chest, neck
+FALL_CONTACT_LINKS = np.array([i for i, link in enumerate(LINKS) if link.fall_contact])  # root, chest, neck (torso and head)
 TOTAL_MASS = float(sum(link.mass for link in LINKS))
 
 # Degrees of freedom of the action and of MuJoCo's actuators.
