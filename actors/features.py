@@ -74,6 +74,7 @@ class RewardFeatures:
         self.root_lin_vel = values[:, ee + 15:ee + 18]  # (B, 3) world
         self.com_vel = values[:, ee + 18:ee + 21]  # (B, 3) world
         self.com = values[:, ee + 21:ee + 24]  # (B, 3) world
+        self.com_xy = values[:, ee + 21:ee + 23]
         self.tail = values[:, HINGE_START:]  # everything compared by plain squared differences
         # Column ranges of `tail` (for the reward's weight matrices).
         self.tail_columns = {"hinges": (0, 4), "ang_vel": (4, 4 + n_ang), "end_effectors": (4 + n_ang, 16 + n_ang),

@@ -40,4 +40,4 @@ class RootSync:
             idx = np.flatnonzero(self._new_cycle)
             self.offset[idx] = sim_xy[idx] - self.root_xy[rows[idx]]
         ref.root_xy += self.offset
-        ref.com[:, :2] += self.offset
+        ref.com_xy += self.offset

@@ -85,12 +85,8 @@ class TrainConfig:
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":
-        d = dict(d)
-        env_dict = dict(d.pop("env", {}))
-        if env_dict and "residual_action_scale" not in env_dict:  # a run from before these defaults
-            d.setdefault("curriculum_start_s", 0.0)
-            d.setdefault("asi_initial_std_scale", 1.0)
-        env = _upgrade_env(env_dict)
+        d = _upgrade(dict(d))
+        env = dict(d.pop("env", {}))
         physics = PhysicsConfig(**env.pop("physics", {}))
         reward = RewardConfig(**env.pop("reward", {}))
         ppo = PPOConfig.from_dict(d.pop("ppo", {}))
@@ -100,16 +96,20 @@ class TrainConfig:
             raise ConfigError(f"run config: {exc}") from None
 
 
-def _upgrade_env(env: dict) -> dict:
+def _upgrade(d: dict) -> dict:
     """A run directory written before DeepMimic's reward, residual actions and strict falls
-    became the defaults (its config has no `residual_action_scale`): fill the new fields with
-    the settings that run was trained with, so `sfv eval`, `render`, `export` and `--resume`
-    still build its env. (Two feature details changed for every run: end effectors are
-    scored by their height above the ground, and the centre of mass's velocity is captured.)"""
+    became the defaults (its env config has no `residual_action_scale`): fill the new fields
+    with the settings that run was trained with, so `sfv eval`, `render`, `export` and
+    `--resume` still build its env. (Two feature details changed for every run: end effectors
+    are scored by their height above the ground, and the centre of mass's velocity is captured.)"""
+    env = dict(d.get("env", {}))
     if not env or "residual_action_scale" in env:
-        return env
+        return d
     from actors.skeleton import LINK_NAMES
 
+    d.setdefault("curriculum_start_s", 0.0)
+    d.setdefault("asi_initial_std_scale", 1.0)
+    d["env"] = env
     env.setdefault("action_parameterisation", "axis_angle")
     env["residual_action_scale"] = None
     env.setdefault("sync_root_per_cycle", False)
@@ -124,4 +124,4 @@ def _upgrade_env(env: dict) -> dict:
         reward.setdefault("pose_weight", 0.65)
         reward.setdefault("velocity_weight", 0.1)
         env["reward"] = reward
-    return env
+    return d

@@ -138,16 +138,16 @@ class Trainer:
 
     def _collect(self, workers, weights, version: int, steps: int) -> list[dict]:
         horizon = self._horizon_s()
+        options = {} if horizon is None else {"horizon_s": horizon}  # RolloutWorker.sample's optional arguments
         if self.config.serial:
-            extra = {} if horizon is None else {"horizon_s": horizon}
-            results = [w.sample(weights, version, steps, **extra) for w in workers]
+            results = [w.sample(weights, version, steps, **options) for w in workers]
         else:
-            results = self._collect_remote(workers, weights, version, steps, horizon)
+            results = self._collect_remote(workers, weights, version, steps, options)
         for result in results:
             self._note_worker_pid(int(result["worker_index"]), int(result["worker_pid"]))
         return results
 
-    def _collect_remote(self, workers, weights, version: int, steps: int, horizon: float | None = None) -> list[dict]:
+    def _collect_remote(self, workers, weights, version: int, steps: int, options: dict | None = None) -> list[dict]:
         """One share per worker; a share lost to a dead or hung worker goes to a worker that has answered."""
         import ray
         from ray.exceptions import RayError, RayTaskError
@@ -158,10 +158,10 @@ class Trainer:
         takebacks = 0
         max_failures = 3 * len(workers)  # beyond this the fault is not transient: stop, do not spin
 
-        extra = {} if horizon is None else {"horizon_s": horizon}
+        options = options or {}
 
         def submit(index: int) -> None:
-            pending[workers[index].sample.remote(weights_ref, version, steps, **extra)] = index
+            pending[workers[index].sample.remote(weights_ref, version, steps, **options)] = index
 
         def lost(index: int, reason: str) -> None:
             nonlocal failures
