@@ -53,17 +53,22 @@ class WorkerSpec:
 class _ServerStarts:
     """Starts drawn from the ASI server (any mode), waiting out an outage of up to `outage_s`."""
 
-    def __init__(self, client, mode: str, outage_s: float = 30.0, max_backoff_s: float = 4.0):
+    def __init__(self, client, mode: str, outage_s: float = 30.0, max_backoff_s: float = 4.0,
+                 rng: np.random.Generator | None = None):
         self.client, self.mode = client, mode
+        # Each draw carries a seed from the worker's own stream, so a serial run is reproducible
+        # (the server draws from fresh entropy when no seed is sent).
+        self.rng = rng
         self.outage_s, self.max_backoff_s = outage_s, max_backoff_s
 
     def __call__(self, count: int) -> InitialStates:
         deadline = time.monotonic() + self.outage_s
         delay = 0.25
+        seed = None if self.rng is None else int(self.rng.integers(2**63))
         while True:
             retries_before = self.client.retries
             try:
-                reply = self.client.sample(self.mode, count)
+                reply = self.client.sample(self.mode, count, seed=seed)
                 break
             except SfvError:
                 # Only transient failures (UNAVAILABLE, DEADLINE_EXCEEDED) make the client
@@ -93,7 +98,7 @@ class RolloutWorker:
             from actors.asi_client import ASIClient  # gRPC only where a server is used
 
             self.client = ASIClient(spec.asi_address, spec.asi_job, token=spec.asi_token, tls_root_cert=spec.asi_tls_ca)
-            source = _ServerStarts(self.client, spec.init, spec.asi_outage_s)
+            source = _ServerStarts(self.client, spec.init, spec.asi_outage_s, rng=np.random.default_rng([self.seed, 1]))
         else:
             if spec.init == "asi":
                 raise ValueError("init 'asi' needs an ASI server address")
