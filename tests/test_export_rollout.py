@@ -10,7 +10,7 @@ from actors import quaternion as qn
 from actors.motion_io import load_motion
 from services.cli import main
 from services.evaluate import evaluate_policy
-from services.export.bvh import load_bvh_motion
+from actors.bvh import load_bvh_motion
 from services.export.policy_source import load_policy_source
 from tests.test_export_onnx import make_tiny_run
 

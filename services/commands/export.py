@@ -60,7 +60,7 @@ def export_rollouts(args) -> list[dict]:
     from threadpoolctl import threadpool_limits
 
     from actors.motion_io import save_motion
-    from services.export.bvh import write_bvh
+    from actors.bvh import write_bvh
     from services.export.policy_source import load_policy_source
     from services.export.rollout import record_episode
 
