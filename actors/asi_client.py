@@ -23,7 +23,7 @@ from typing import NamedTuple
 import grpc
 import numpy as np
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from proto import asi_pb2, asi_pb2_grpc
 
 log = logging.getLogger(__name__)

@@ -32,7 +32,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from actors import quaternion as qn
-from actors.errors import SfvError
+from learner.errors import SfvError
 from actors.motion import ReferenceMotion
 from actors.skeleton import JOINT_NAMES, LINKS, NUM_JOINTS
 from learner.atomic_io import atomic_write_bytes

@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from actors import quaternion as qn
-from actors.atomic_file import atomic_output
-from actors.errors import MotionFormatError
+from learner.atomic_io import atomic_output
+from learner.errors import SfvError
 from actors.motion import ReferenceMotion
 from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, JOINT_NAMES, NUM_JOINTS, revolute_angle
 
@@ -35,6 +35,10 @@ DEEPMIMIC_CLIPS = (
     "backflip", "cartwheel", "crawl", "dance_a", "dance_b", "getup_facedown", "getup_faceup",
     "jump", "kick", "punch", "roll", "run", "spin", "spinkick", "walk",
 )
+
+
+class MotionFormatError(SfvError, ValueError):
+    """A motion file is malformed; the message names the file and the fault."""
 
 
 def resolve_motion_path(name_or_path: str) -> Path:

@@ -22,11 +22,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from actors.imitation_env import EnvConfig
 from actors.initial_states import BufferedStarts, InitialStates, ReferenceStarts
 from actors.motion import ReferenceMotion
-from actors.policy import NumpyPolicy
+from learner.policy import NumpyPolicy
 from actors.vector_env import VectorImitationEnv
 
 log = logging.getLogger(__name__)

@@ -75,7 +75,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     policy = None
     if args.run:
-        from actors.policy import NumpyPolicy
+        from learner.policy import NumpyPolicy
         from services.evaluate import load_run
 
         _, weights = load_run(args.run)

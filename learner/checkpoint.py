@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from learner.atomic_io import atomic_write_bytes
 
 CHECKPOINT_FORMAT = "sfv-checkpoint"

@@ -1,6 +1,16 @@
-"""Errors raised by the learner; all are one-line, user-facing `SfvError`s."""
+"""Errors with a one-line, user-facing message, and the learner's own kinds of them.
 
-from actors.errors import SfvError
+`SfvError` lives in the floor package (learner/) so that actors/ and services/ raise and
+catch the same type without anything importing upward.
+"""
+
+
+class SfvError(Exception):
+    """A user-facing failure: bad input file, unreachable service, bad request.
+
+    The message is one line and names the file or endpoint and what is wrong.
+    The command line prints it as `sfv: <message>` and exits 2.
+    """
 
 
 class NonFiniteError(SfvError, FloatingPointError):

@@ -5,7 +5,7 @@ The graph is built straight from `PPOLearner.policy_weights()` (no torch tracing
     obs [batch, obs_dim] -> clip((obs - mean) / std) -> (MatMul, Add, Relu)* -> MatMul, Add -> action_mean [batch, act_dim]
 
 The fixed action std travels in the model's metadata (``action_std``, a JSON list), so
-`OnnxPolicy` can also sample, with the same `act()` contract as `actors.policy.NumpyPolicy`.
+`OnnxPolicy` can also sample, with the same `act()` contract as `learner.policy.NumpyPolicy`.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ import numpy as np
 import onnx
 from onnx import TensorProto, helper, numpy_helper
 
-from actors.errors import SfvError
-from actors.policy import diagonal_gaussian_logp, gaussian_log_normaliser, policy_layers
+from learner.errors import SfvError
+from learner.policy import diagonal_gaussian_logp, gaussian_log_normaliser, policy_layers
 from learner.atomic_io import atomic_write_bytes
 
 OPSET = 17

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from learner.config import PPOConfig
 from learner.errors import BatchFormatError, NonFiniteError
 from learner.networks import ObservationNormalizer, PolicyNetwork, ValueNetwork, linear_layers
@@ -282,7 +282,7 @@ class PPOLearner:
     # ------------------------------------------------------------------ export
 
     def policy_weights(self) -> dict[str, np.ndarray]:
-        """Flat dict of float32 arrays for `actors.policy.NumpyPolicy` and the ONNX export.
+        """Flat dict of float32 arrays for `learner.policy.NumpyPolicy` and the ONNX export.
 
         Keys: obs_mean, obs_std (obs_dim,), obs_clip (), action_std (act_dim,), and per
         Linear layer i: ``layer{i}.weight`` as (in_dim, out_dim) and ``layer{i}.bias``.

@@ -15,7 +15,7 @@ import os
 import numpy as np
 
 from actors.asi_client import ASIClient
-from actors.errors import SfvError
+from learner.errors import SfvError
 from services.train_config import TrainConfig
 
 

@@ -13,7 +13,7 @@ import pkgutil
 import sys
 
 from services import commands
-from services.errors import SfvError
+from learner.errors import SfvError
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -52,7 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from actors.falls import FallDetector
 from actors.features import NUM_REWARD_QUATS, RewardFeatures
 from actors.imitation_env import ImitationEnv
@@ -290,7 +290,7 @@ class TrainingEvaluator:
         from threadpoolctl import threadpool_limits
 
         from actors.motion_io import load_motion
-        from actors.policy import NumpyPolicy
+        from learner.policy import NumpyPolicy
 
         if self._env is None:
             self._env = make_eval_env(load_motion(self.config.motion), self.config.env)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.atomic_file import atomic_output
+from learner.atomic_io import atomic_output
 from services.run_dir import CONFIG_FILE, read_metrics
 
 INIT_COLOURS = {"asi": "tab:blue", "rsi": "tab:orange", "fsi": "tab:green"}

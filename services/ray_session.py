@@ -6,7 +6,7 @@ import os
 from contextlib import contextmanager
 from pathlib import Path
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 
 _REPO_ROOT = Path(__file__).resolve().parents[1]
 

@@ -49,7 +49,7 @@ class TrainConfig:
     ppo: PPOConfig = field(default_factory=PPOConfig)
 
     def validate(self) -> None:
-        from actors.errors import SfvError
+        from learner.errors import SfvError
 
         if self.init not in INIT_MODES:
             raise SfvError(f"--init must be one of {', '.join(INIT_MODES)}, got {self.init!r}")

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from actors.imitation_env import ImitationEnv
 from actors.motion_io import load_motion
 from actors.rollout_worker import RolloutWorker, WorkerSpec

@@ -9,7 +9,7 @@ import pytest
 from tests.asi_helpers import D, K, reference_clip
 
 from actors.asi_client import ASIClient
-from actors.errors import SfvError
+from learner.errors import SfvError
 from proto import asi_pb2
 from services.asi.server import serve
 from services.asi.store import InMemoryStore

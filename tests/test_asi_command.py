@@ -8,7 +8,7 @@ from tests.asi_helpers import K, REPO_ROOT, ServerProcess, reference_clip
 from tests.redis_fixture import free_port
 
 from actors.asi_client import ASIClient
-from actors.errors import SfvError
+from learner.errors import SfvError
 
 pytestmark = pytest.mark.integration
 

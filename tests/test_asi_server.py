@@ -8,7 +8,7 @@ from tests.asi_helpers import D, FRAMES, K, create_request, reference_clip, repo
 from grpc_health.v1 import health_pb2, health_pb2_grpc
 
 from actors.asi_client import ASIClient
-from actors.errors import SfvError
+from learner.errors import SfvError
 from proto import asi_pb2, asi_pb2_grpc
 from services.asi.distribution import InitialStateDistribution, UpdateConfig
 from services.asi.server import SERVICE_NAME, EmbeddedASIServer, serve

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from tests.redis_fixture import redis_server_with_password  # noqa: F401  (fixture)
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from services.asi.distribution import InitialStateDistribution, UpdateConfig, evenly_spaced_phases
 from services.asi.store import EpisodeBatch, InMemoryStore, JobSpec
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from actors import quaternion as qn
-from actors.errors import SfvError
+from learner.errors import SfvError
 from actors.kinematics import forward_kinematics
 from actors.motion import ReferenceMotion
 from actors.motion_io import load_motion

@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from actors import quaternion as qn
-from actors.errors import SfvError
+from learner.errors import SfvError
 from actors.imitation_env import ImitationEnv
 from actors.motion_io import load_motion
 from services.cli import main

@@ -68,7 +68,7 @@ def exported(tiny_run, tmp_path_factory):
 
 
 def test_onnx_matches_the_torch_policy_and_numpy_policy(tiny_run, exported):
-    from actors.policy import NumpyPolicy
+    from learner.policy import NumpyPolicy
     from services.evaluate import load_run
 
     _, learner = tiny_run

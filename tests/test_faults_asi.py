@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from actors.asi_client import ASIClient
-from actors.errors import SfvError
+from learner.errors import SfvError
 from actors.features import observation_dim
 from actors.imitation_env import EnvConfig
 from actors.motion_io import load_motion

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 import torch
 
-from actors.errors import SfvError
-from actors.policy import NumpyPolicy
+from learner.errors import SfvError
+from learner.policy import NumpyPolicy
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
 from learner.config import PPOConfig
 from learner.ppo import PPOLearner

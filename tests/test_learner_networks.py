@@ -69,7 +69,7 @@ def test_init_is_reproducible_and_policy_mean_starts_near_zero():
 
 @pytest.mark.parametrize("bad", [0.0, -1.0])
 def test_config_rejects_non_positive_std(bad):
-    from actors.errors import SfvError
+    from learner.errors import SfvError
     from learner.config import PPOConfig
 
     with pytest.raises(SfvError, match="action_std"):

@@ -8,7 +8,7 @@ import onnx
 import pytest
 import torch
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from learner.config import PPOConfig
 from learner.onnx_export import OnnxPolicy, export_policy_onnx
 from learner.ppo import PPOLearner

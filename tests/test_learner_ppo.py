@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 import torch
 
-from actors.errors import SfvError
-from actors.policy import NumpyPolicy
+from learner.errors import SfvError
+from learner.policy import NumpyPolicy
 from learner.config import PPOConfig
 from learner.errors import BatchFormatError, NonFiniteError
 from learner.ppo import PPOLearner, clipped_surrogate_loss

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import torch
 
-from actors.policy import NumpyPolicy
+from learner.policy import NumpyPolicy
 from learner.config import PPOConfig
 from learner.errors import ConfigError
 from learner.ppo import PPOLearner

@@ -1,12 +1,12 @@
-"""actors.policy.NumpyPolicy against the learner's torch networks."""
+"""learner.policy.NumpyPolicy against the learner's torch networks."""
 
 import numpy as np
 import pytest
 import torch
 from torch.distributions import Normal
 
-from actors.errors import SfvError
-from actors.policy import NumpyPolicy
+from learner.errors import SfvError
+from learner.policy import NumpyPolicy
 from learner.config import PPOConfig
 from learner.ppo import PPOLearner
 

@@ -14,7 +14,7 @@ from tests.video_helpers import write_clip
 from services.pose.models import DETECTOR_FILE, LANDMARK_FILE
 
 from services.cli import main
-from services.errors import SfvError
+from learner.errors import SfvError
 from services.pose import PoseConfig, PoseTrack, estimate_video, resolve_model_files
 from services.pose.detector import PoseDetector
 from services.pose.estimator import estimate_chunk, rotate_frame

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from services.cli import main
-from services.errors import SfvError
+from learner.errors import SfvError
 from services.pose import models
 from services.pose.models import (
     DETECTOR_FILE,

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from services.errors import SfvError
+from learner.errors import SfvError
 from services.pose.track import KEYPOINT_NAMES, PoseTrack, fill_gaps
 
 

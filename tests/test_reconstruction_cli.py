@@ -14,7 +14,7 @@ from tests.video_helpers import write_clip
 
 from actors.motion_io import load_motion, save_motion
 from services.cli import main
-from services.errors import SfvError
+from learner.errors import SfvError
 from services.pose.video import read_frames
 from services.reconstruction.render import gl_context
 from services.reconstruction.synthetic import make_clip

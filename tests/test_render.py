@@ -5,7 +5,7 @@ import imageio.v2 as imageio
 import numpy as np
 import pytest
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from services.cli import main
 from services.evaluate import evaluate_policy
 from services.export.policy_source import load_policy_source

@@ -16,7 +16,7 @@ import pytest
 import torch
 
 from actors.asi_client import ASIClient
-from actors.errors import SfvError
+from learner.errors import SfvError
 from learner.checkpoint import load_checkpoint
 from services.cli import main
 from services.run_dir import checkpoint_files, read_metrics

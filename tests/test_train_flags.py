@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from services.commands import train
 from services.trainer import _set_torch_threads
 

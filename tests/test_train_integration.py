@@ -62,7 +62,7 @@ def test_rsi_run_without_redis_and_refuses_to_overwrite(tmp_path, ray_local):
     Trainer(small_config(out, init="rsi", samples=256), progress=False).run()
     rows = read_metrics(out)
     assert len(rows) == 1 and rows[0]["asi_version"] == 0
-    from actors.errors import SfvError
+    from learner.errors import SfvError
 
     with pytest.raises(SfvError, match="--resume"):
         Trainer(small_config(out, init="rsi", samples=256), progress=False).run()

@@ -27,7 +27,7 @@ import redis
 from redis.backoff import ExponentialBackoff
 from redis.retry import Retry
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from services.asi.distribution import UpdateConfig
 from services.asi.store import (ASIStore, EpisodeBatch, JobParams, JobSpec, ReportOutcome, StoreUnavailable,
                                 TooManyJobs, gradient_step)

@@ -21,7 +21,7 @@ import numpy as np
 from google.protobuf.message import DecodeError
 from grpc_health.v1 import health, health_pb2, health_pb2_grpc
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from proto import asi_pb2, asi_pb2_grpc
 from services.asi.distribution import (BASELINES, InitialStateDistribution, UpdateConfig, evenly_spaced_phases,
                                        nearest_frames, reference_std)

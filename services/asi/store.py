@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from services.asi.distribution import InitialStateDistribution, UpdateConfig
 
 log = logging.getLogger(__name__)

@@ -52,7 +52,7 @@ import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 
 FORMAT = "sfv-learning-1"
 RESULTS_FILE = "learning.json"

@@ -15,7 +15,7 @@ from pathlib import Path
 from services.bench.config import BenchConfig
 from services.bench.measure import Summary, interleaved
 from services.bench.result import SuiteResult
-from services.errors import SfvError
+from learner.errors import SfvError
 
 SHARED = Path(__file__).resolve().parents[2].parent / "shared"
 DEFAULT_VIDEO = SHARED / "data" / "video" / "pose2sim_balancing" / "cam01.mp4"

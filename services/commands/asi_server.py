@@ -15,7 +15,7 @@ import signal
 import threading
 from pathlib import Path
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 
 log = logging.getLogger("sfv.asi_server")
 

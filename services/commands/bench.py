@@ -7,7 +7,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from services.errors import SfvError
+from learner.errors import SfvError
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     from services.bench.config import SUITES, BenchConfig

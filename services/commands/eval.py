@@ -49,7 +49,7 @@ def register(sub) -> None:
 
 
 def _integer(flag: str, text: str, minimum: int | None = None) -> int:
-    from actors.errors import SfvError
+    from learner.errors import SfvError
 
     try:
         value = int(text)
@@ -61,7 +61,7 @@ def _integer(flag: str, text: str, minimum: int | None = None) -> int:
 
 
 def _number(flag: str, text: str, positive: bool) -> float:
-    from actors.errors import SfvError
+    from learner.errors import SfvError
 
     try:
         value = float(text)
@@ -73,7 +73,7 @@ def _number(flag: str, text: str, positive: bool) -> float:
 
 
 def run(args) -> int:
-    from actors.errors import SfvError
+    from learner.errors import SfvError
     from services.evaluate import evaluate_run
 
     episodes = _integer("--episodes", args.episodes, 1)

@@ -39,7 +39,7 @@ def _episode_path(path: str, episode: int, episodes: int) -> Path:
 
 
 def _check_args(args) -> None:
-    from actors.errors import SfvError
+    from learner.errors import SfvError
 
     if not (args.onnx or args.motion or args.bvh):
         raise SfvError("export: give --onnx FILE, --motion FILE.npz and/or --bvh FILE.bvh")

@@ -16,7 +16,7 @@ import argparse
 import json
 import math
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 
 
 def register(subparsers) -> None:

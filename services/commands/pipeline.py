@@ -32,7 +32,7 @@ def run(args) -> int:
 
     import ray
 
-    from actors.errors import SfvError
+    from learner.errors import SfvError
     from actors.motion_io import save_motion
     from services.pose import estimate_video
     from services.pose.video import probe_video

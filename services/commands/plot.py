@@ -20,7 +20,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from actors.errors import SfvError
+    from learner.errors import SfvError
     from services.plotting import learning_curve, plot_learning_curves
     from services.run_dir import CONFIG_FILE, METRICS_FILE
 

@@ -5,7 +5,7 @@ import argparse
 import time
 from pathlib import Path
 
-from services.errors import SfvError
+from learner.errors import SfvError
 from services.pose import PoseConfig, estimate_video
 from services.pose.models import MODELS_ENV
 

@@ -6,7 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
-from services.errors import SfvError
+from learner.errors import SfvError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -68,7 +68,7 @@ def build_config(args):
     import dataclasses
     from pathlib import Path
 
-    from actors.errors import SfvError
+    from learner.errors import SfvError
     from actors.humanoid import PhysicsConfig
     from services.run_dir import CONFIG_FILE
     from services.train_config import TrainConfig

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 
 MAX_SIDE = 4096
 

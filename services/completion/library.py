@@ -11,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from actors.imitation_env import ImitationEnv
 from actors.motion_io import load_motion
-from actors.policy import NumpyPolicy
+from learner.policy import NumpyPolicy
 from actors.skeleton import NUM_JOINTS
 from services.run_dir import CONFIG_FILE
 

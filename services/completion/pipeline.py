@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 import services.render  # noqa: F401  (sets MUJOCO_GL before mujoco's GL backends load)
-from actors.errors import SfvError
+from learner.errors import SfvError
 from services.completion.config import CompletionConfig
 from services.completion.image_panel import draw_image_panel
 from services.completion.initial_state import initial_state

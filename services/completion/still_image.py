@@ -6,7 +6,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from services.pose import PoseConfig, PoseTrack, resolve_model_files
 from services.pose.estimator import FramePoseEstimator
 from services.pose.landmarks import NUM_BODY_LANDMARKS

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 
 CHECK_ROWS = 64
 CHECK_TOLERANCE = 1e-4  # float32 MLP: ONNX and numpy differ by rounding only (~1e-6)
@@ -18,7 +18,7 @@ def export_run_onnx(run_dir: str | Path, out: str | Path, seed: int = 0) -> dict
     observations spread like the training data (the run's own normaliser statistics, some
     beyond the clip); a mismatch removes the file and raises.
     """
-    from actors.policy import NumpyPolicy
+    from learner.policy import NumpyPolicy
     from learner.onnx_export import OnnxPolicy, export_policy_onnx
     from services.evaluate import load_run
 

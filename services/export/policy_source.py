@@ -10,7 +10,7 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.motion_io import load_motion
 from services.run_dir import CONFIG_FILE
@@ -57,7 +57,7 @@ def load_policy_source(run_dir: str | Path | None, onnx: str | Path | None = Non
         policy = OnnxPolicy(onnx, num_threads=1)  # one observation per call: threads only add overhead
         description = Path(onnx).name
     else:
-        from actors.policy import NumpyPolicy
+        from learner.policy import NumpyPolicy
         from services.evaluate import load_run
 
         config, weights = load_run(run_dir)

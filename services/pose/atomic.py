@@ -5,7 +5,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import BinaryIO
 
-from actors.atomic_file import atomic_output
+from learner.atomic_io import atomic_output
 
 
 def write_atomically(path: Path, write: Callable[[BinaryIO], None]) -> Path:

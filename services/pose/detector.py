@@ -16,7 +16,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from services.errors import SfvError
+from learner.errors import SfvError
 from services.pose.anchors import DETECTOR_INPUT_SIZE, ssd_anchor_centres
 from services.pose.runtime import open_model
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from services.errors import SfvError
+from learner.errors import SfvError
 from services.pose.roi import Roi, roi_from_alignment_points
 from services.pose.runtime import open_model
 

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from platformdirs import user_cache_dir
 
-from services.errors import SfvError
+from learner.errors import SfvError
 from services.pose.atomic import write_atomically
 
 MEDIAPIPE_REQUIREMENT = "mediapipe==0.10.21"

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from services.errors import SfvError
+from learner.errors import SfvError
 
 # BlazePose index -> BODY_25B index, for shoulders, elbows, wrists, hips, knees, ankles.
 BLAZEPOSE_FROM_BODY_25B: dict[int, int] = {

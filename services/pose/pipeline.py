@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from services.errors import SfvError
+from learner.errors import SfvError
 from services.pose.config import PoseConfig
 from services.pose.estimator import ChunkResult, FramePoseEstimator, estimate_chunk
 from services.pose.models import resolve_model_files

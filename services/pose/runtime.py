@@ -11,7 +11,7 @@ from typing import Protocol
 
 import numpy as np
 
-from services.errors import SfvError
+from learner.errors import SfvError
 
 _FETCH_HINT = "run `sfv models fetch` to re-download it"
 

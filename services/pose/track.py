@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from services.errors import SfvError
+from learner.errors import SfvError
 from services.pose.atomic import write_atomically
 
 KEYPOINT_NAMES: tuple[str, ...] = (

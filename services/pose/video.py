@@ -8,7 +8,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from services.errors import SfvError
+from learner.errors import SfvError
 
 
 @dataclass(frozen=True)

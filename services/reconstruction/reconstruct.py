@@ -28,7 +28,7 @@ import numpy as np
 import torch
 
 from actors import quaternion as qn
-from actors.errors import SfvError
+from learner.errors import SfvError
 from actors.motion import ReferenceMotion
 from services.reconstruction.body import PoseParams, body_points
 from services.reconstruction.camera import (

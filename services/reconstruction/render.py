@@ -16,8 +16,8 @@ import cv2
 import mujoco
 import numpy as np
 
-from actors.atomic_file import atomic_output
-from actors.errors import SfvError
+from learner.atomic_io import atomic_output
+from learner.errors import SfvError
 from actors.humanoid import Humanoid
 from actors.motion import ReferenceMotion
 from actors.state import StateLayout

@@ -15,7 +15,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from actors.imitation_env import ImitationEnv
 from services.export.rollout import episode_limit, episode_steps
 from services.render.camera import CameraConfig, FollowCamera

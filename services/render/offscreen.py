@@ -12,7 +12,7 @@ import os
 import mujoco
 import numpy as np
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 
 
 def gl_context_class():

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.atomic_file import usual_file_mode
-from actors.errors import SfvError
+from learner.atomic_io import usual_file_mode
+from learner.errors import SfvError
 
 
 def check_video_path(path: str | os.PathLike) -> Path:

@@ -20,7 +20,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 
 HALF_LOG_TWO_PI = 0.5 * math.log(2.0 * math.pi)
 
