@@ -26,7 +26,7 @@ from actors.falls import FallDetector  # noqa: E402
 from actors.imitation_env import EnvConfig, ImitationEnv  # noqa: E402
 from actors.motion_io import load_motion  # noqa: E402
 from services.asi.distribution import InitialStateDistribution  # noqa: E402
-from services.run_dir import write_json_atomic  # noqa: E402
+from services.training.run_dir import write_json_atomic  # noqa: E402
 
 
 def rollout_stats(env: ImitationEnv, starts, policy, seconds: float) -> dict:
@@ -76,7 +76,7 @@ def main(argv=None) -> int:
     policy = None
     if args.run:
         from learner.policy import NumpyPolicy
-        from services.evaluate import load_run
+        from services.training.run_dir import load_run
 
         _, weights = load_run(args.run)
         policy = NumpyPolicy(weights, max_batch=1)

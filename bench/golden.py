@@ -32,7 +32,7 @@ def _config(out: str, init: str):
     try:
         from services.training.config import TrainConfig
     except ImportError:  # the layout before issue 12
-        from services.train_config import TrainConfig
+        from services.training.config import TrainConfig
 
     config = TrainConfig(motion="deepmimic:walk", out=out, workers=2, envs_per_worker=4, init=init, samples=2 * 1024,
                          serial=True, torch_threads=1, eval_every=0, plot_every=0, checkpoint_every=1)
@@ -64,7 +64,7 @@ def _training_digest(init: str) -> dict:
     try:
         from services.training.driver import Trainer
     except ImportError:
-        from services.trainer import Trainer
+        from services.training.driver import Trainer
 
     with tempfile.TemporaryDirectory() as tmp:
         out = str(Path(tmp) / f"golden_{init}")

@@ -20,10 +20,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
-import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -36,6 +33,7 @@ from services.reconstruction import JOINT_KEYPOINTS, ReconstructionConfig, recon
 from services.reconstruction.keypoints import observe  # noqa: E402
 from services.reconstruction.label_flips import undo_label_flips  # noqa: E402
 from services.reconstruction.metrics import acceleration_error, centre_on, evaluate  # noqa: E402
+from learner.atomic_io import atomic_write_json  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 CLIP_DIR = Path("data") / "video" / "pose2sim_balancing"
@@ -97,15 +95,6 @@ def mean_over_cameras(results: dict, truth: str) -> dict:
                    for k in ("mpjpe_mm", "pa_mpjpe_mm", "accel_error_mm")} for name in names}
 
 
-def write_json_atomic(path: Path, document: dict) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as handle:
-            json.dump(document, handle, indent=2)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def main() -> int:
@@ -142,7 +131,7 @@ def main() -> int:
             for name, v in document["mean"][truth].items()) + " |")
     print(f"\ngt floor: triangulated vs filtered markers differ by {floor:.1f} mm/frame^2 in acceleration")
     if args.out:
-        write_json_atomic(args.out, document)
+        atomic_write_json(args.out, document)
     return 0
 
 

@@ -3,10 +3,10 @@
     python bench/scaling.py --max-workers 16 --out scaling.json [--device cuda] [--quick]
 
 Each worker is a `RolloutWorker` in its own process (multiprocessing, spawn), driven by the
-real training loop (`services.trainer.Trainer`: PPO learner, embedded ASI server, metrics,
-checkpoints), with only the transport swapped: pipes instead of Ray actors (see
-services/bench/process_trainer.py). Worker processes get one BLAS/OpenMP thread each, as
-Ray gives its 1-CPU actors.
+real training loop (`services.training.driver.Trainer`: PPO learner, embedded ASI server, metrics,
+checkpoints), with the processes runner (`services/training/runners/processes.py`): pipes
+instead of Ray actors. Worker processes get one BLAS/OpenMP thread each, as Ray gives its
+1-CPU actors.
 
 Every repetition measures, in rotating order, one training run per worker count and the
 raw physics bound on one core (MuJoCo alone, see services/bench/steppers.py); reported are
@@ -28,23 +28,21 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a check
 
 from services.bench.env_suite import env_config_for  # noqa: E402
 from services.bench.measure import Summary, rate_for, ratio  # noqa: E402
-from services.bench.process_trainer import MultiprocessTrainer, parallel_raw_steps_per_s  # noqa: E402
+from services.bench.parallel_raw import parallel_raw_steps_per_s  # noqa: E402
 from services.bench.report import markdown_table, write_json_atomic  # noqa: E402
 from services.bench.result import SuiteResult  # noqa: E402
 from services.bench.runner import machine  # noqa: E402
 from services.bench.steppers import RawPhysics  # noqa: E402
-from services.train_config import TrainConfig  # noqa: E402
+from services.training.config import TrainConfig  # noqa: E402
+from services.training.driver import Trainer  # noqa: E402
 
 
 def train_samples_per_s(args, workers: int, out: Path) -> float:
     config = TrainConfig(motion=args.motion, out=str(out), workers=workers, envs_per_worker=args.envs_per_worker,
-                         init="asi", seed=0, device=args.device, env=env_config_for(args.physics_hz))
+                         init="asi", seed=0, device=args.device, env=env_config_for(args.physics_hz), runner="processes")
     config.samples = args.iterations * config.ppo.batch_size
-    trainer = MultiprocessTrainer(config)
-    try:
+    with Trainer(config, progress=False) as trainer:
         return trainer.run()["overall_samples_per_s"]
-    finally:
-        trainer.close()
 
 
 # ----------------------------------------------------------------------------- main

@@ -9,6 +9,7 @@ Lives in learner/ (the floor) so every package can use it without importing upwa
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import tempfile
 from collections.abc import Iterator
@@ -56,6 +57,11 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     with atomic_output(path) as tmp:
         tmp.write_text(text)
     return Path(path)
+
+
+def atomic_write_json(path: str | os.PathLike, obj, sort_keys: bool = False) -> Path:
+    """`obj` as indented JSON with a final newline (configs, reports, benchmark records)."""
+    return atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=sort_keys) + "\n")
 
 
 def _fsync_directory(directory: Path) -> None:

@@ -1,7 +1,16 @@
-"""Running Ray tasks from a command: reuse the running Ray or start a local one, and turn a
-task's user-facing error back into the one-line `SfvError` it was."""
+"""The one place that starts or joins Ray: training, pose and reconstruction tasks, the
+pipeline and the benchmarks all come through here.
+
+A local start is a private single-node Ray (`address="local"`: never a cluster someone else
+started on this machine) whose workers can import the project from a checkout (PYTHONPATH in
+the runtime env), without the dashboard and without Ray configuring the process's logging.
+It is retried once on any failure: on a busy 2-core machine the raylet missed Ray's fixed 30 s
+registration deadline (about once in 10 CI runs) and the GCS server its 30 s port-file
+deadline (`Timed out waiting for file .../gcs_server_port_...`, seen on a quiet machine too).
+"""
 from __future__ import annotations
 
+import logging
 import os
 from contextlib import contextmanager
 from pathlib import Path
@@ -9,25 +18,48 @@ from pathlib import Path
 from learner.errors import SfvError
 
 _REPO_ROOT = Path(__file__).resolve().parents[1]
+LOCAL_START_ATTEMPTS = 2
+log = logging.getLogger("sfv.ray")
 
 
-def start_local_ray(num_cpus: int | None = None) -> None:
-    """A single-node Ray on this machine whose workers can import the project from a checkout."""
+def start_local_ray(num_cpus: int | None = None, log_to_driver: bool = True, attempts: int = LOCAL_START_ATTEMPTS) -> None:
+    """A single-node Ray on this machine, retried on any start failure."""
     import ray
 
     python_path = os.pathsep.join(p for p in (str(_REPO_ROOT), os.environ.get("PYTHONPATH", "")) if p)
-    ray.init(num_cpus=num_cpus or os.cpu_count() or 1, include_dashboard=False, logging_level="ERROR",
-             runtime_env={"env_vars": {"PYTHONPATH": python_path}})
+    for attempt in range(1, attempts + 1):
+        try:
+            ray.init(address="local", num_cpus=num_cpus or os.cpu_count() or 1, include_dashboard=False,
+                     configure_logging=False, log_to_driver=log_to_driver,
+                     runtime_env={"env_vars": {"PYTHONPATH": python_path}})
+            return
+        except Exception as exc:  # Ray raises a bare Exception (or RuntimeError) for start timeouts
+            if attempt == attempts:
+                raise
+            log.warning("local Ray did not start (%s); trying again", str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+            ray.shutdown()
+
+
+def connect_ray(address: str | None = None, num_cpus: int | None = None, log_to_driver: bool = True) -> bool:
+    """Join the cluster at `address` (host:port or 'auto') or start a local Ray; nothing when
+    Ray is running in this process already. Returns whether this call started it."""
+    import ray
+
+    if ray.is_initialized():
+        return False
+    if address:
+        ray.init(address=address, log_to_driver=log_to_driver, configure_logging=False)
+    else:
+        start_local_ray(num_cpus, log_to_driver)
+    return True
 
 
 @contextmanager
-def ray_session():
-    """The running Ray, or a local one started (and shut down) for the block."""
+def ray_session(address: str | None = None, num_cpus: int | None = None, log_to_driver: bool = True):
+    """Ray for the block: the running one, or one joined or started here (and shut down after)."""
     import ray
 
-    started_here = not ray.is_initialized()
-    if started_here:
-        start_local_ray()
+    started_here = connect_ray(address, num_cpus, log_to_driver)
     try:
         yield
     finally:

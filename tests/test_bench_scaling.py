@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from services.bench.process_trainer import MultiprocessTrainer
-from services.run_dir import read_metrics
-from services.train_config import TrainConfig
+from services.training.driver import Trainer
+from services.training.run_dir import read_metrics
+from services.training.config import TrainConfig
 
 SCRIPT = Path(__file__).resolve().parents[1] / "bench" / "scaling.py"
 
@@ -36,13 +36,13 @@ def test_explicit_counts_and_bad_output(scaling, tmp_path):
 @pytest.mark.integration
 def test_training_runs_over_process_workers(tmp_path):
     config = TrainConfig(motion="deepmimic:walk", out=str(tmp_path / "run"), workers=2, envs_per_worker=2, init="asi",
-                         samples=2 * 64, seed=1, asi_episodes_per_update=8, plot_every=0)
+                         samples=2 * 64, seed=1, asi_episodes_per_update=8, plot_every=0, runner="processes")
     config.ppo.batch_size, config.ppo.minibatch_size = 64, 32
     config.ppo.policy_hidden = config.ppo.value_hidden = (32, 32)
-    trainer = MultiprocessTrainer(config)
+    trainer = Trainer(config, progress=False)
     try:
         record = trainer.run()
-        processes = [w.proc for w in trainer.processes]
+        processes = [w.proc for w in trainer.runner.workers]
         assert len(processes) == 2 and all(p.is_alive() for p in processes)
     finally:
         trainer.close()

@@ -25,7 +25,7 @@ from pathlib import Path
 import pytest
 
 from learner.checkpoint import latest_checkpoint, load_checkpoint
-from services.run_dir import read_metrics
+from services.training.run_dir import read_metrics
 from tests.redis_fixture import free_port
 from tests.test_faults_support import REPO, TINY_RUN, clean_env, descendants, session_members, wait_for
 

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from services.cli import main
-from services.train_config import TrainConfig
-from services.trainer import Trainer
+from services.training.config import TrainConfig
+from services.training.driver import Trainer
 
 pytestmark = pytest.mark.integration
 pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")

@@ -6,8 +6,8 @@ import pytest
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.initial_states import BufferedStarts, ReferenceStarts
 from actors.vector_env import VectorImitationEnv
-from services.train_config import TrainConfig
-from services.trainer import Trainer
+from services.training.config import TrainConfig
+from services.training.driver import Trainer
 
 
 def test_schedule_grows_linearly_from_the_start_cap_to_the_horizon(tmp_path):

@@ -1,4 +1,4 @@
-"""Strict evaluation (`services/evaluate.py`, `sfv eval`, the trainer's periodic eval, the plot).
+"""Strict evaluation (`services/training/evaluation.py`, `sfv eval`, the trainer's periodic eval, the plot).
 
 Most tests use a synthetic clip: the character standing still (every joint at rest), which PD
 tracking with a zero residual holds for seconds, so "not fallen" has a real control case. The
@@ -18,14 +18,7 @@ from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.motion import ReferenceMotion
 from actors.skeleton import JOINT_IS_SPHERICAL, JOINT_NAMES, LINK_NAMES
 from services.cli import main
-from services.evaluate import (
-    DEFAULT_EPISODES,
-    PUSH_RECOVERY_S,
-    TrainingEvaluator,
-    evaluate_policy,
-    make_eval_env,
-    tracking_errors,
-)
+from services.training.evaluation import DEFAULT_EPISODES, PUSH_RECOVERY_S, TrainingEvaluator, evaluate_policy, make_eval_env, tracking_errors
 
 STAND_HEIGHT = 0.885  # root height at which the rest pose's feet just touch the floor
 REVOLUTE_NAMES = [n for n, s in zip(JOINT_NAMES, JOINT_IS_SPHERICAL) if not s]
@@ -280,8 +273,8 @@ def stand_run(tmp_path_factory):
     from actors.motion_io import save_motion
     from learner.checkpoint import checkpoint_path, save_checkpoint
     from learner.ppo import PPOLearner
-    from services.run_dir import CONFIG_FILE
-    from services.train_config import TrainConfig
+    from services.training.run_dir import CONFIG_FILE
+    from services.training.config import TrainConfig
 
     root = tmp_path_factory.mktemp("evalrun")
     motion = save_motion(stand_motion(), root / "stand.npz")
@@ -343,9 +336,9 @@ def test_bad_flag_values_are_one_line_errors(argv, flag, tmp_path, capsys):
 # ------------------------------------------------------------------------------ training
 def test_training_evaluates_when_the_sample_count_crosses_eval_every_and_at_the_end(tmp_path):
     from actors.motion_io import save_motion
-    from services.run_dir import read_metrics
-    from services.train_config import TrainConfig
-    from services.trainer import Trainer
+    from services.training.run_dir import read_metrics
+    from services.training.config import TrainConfig
+    from services.training.driver import Trainer
 
     motion = save_motion(stand_motion(), tmp_path / "stand.npz")
     config = TrainConfig(motion=str(motion), out=str(tmp_path / "run"), workers=1, envs_per_worker=4, init="rsi",
@@ -380,7 +373,7 @@ def test_training_evaluator_uses_the_current_weights(stand):
     from actors.imitation_env import EnvConfig
 
     OBS_DIM = observation_dim(len(EnvConfig().reference_obs_steps))
-    from services.train_config import TrainConfig
+    from services.training.config import TrainConfig
 
     def weights(bias_knee: float) -> dict:
         w = {"obs_mean": np.zeros(OBS_DIM, np.float32), "obs_std": np.ones(OBS_DIM, np.float32),
@@ -408,7 +401,7 @@ def test_blas_threads_are_given_back_after_an_evaluation(stand):
     from actors.imitation_env import EnvConfig
 
     OBS_DIM = observation_dim(len(EnvConfig().reference_obs_steps))
-    from services.train_config import TrainConfig
+    from services.training.config import TrainConfig
 
     before = [(p["internal_api"], p["num_threads"]) for p in threadpool_info()]
     config = TrainConfig(motion="unused", eval_episodes=1, env=EnvConfig(horizon_s=0.2))

@@ -22,8 +22,8 @@ from learner.checkpoint import checkpoint_path, save_checkpoint
 from learner.onnx_export import OnnxPolicy
 from learner.ppo import PPOLearner
 from services.cli import main
-from services.run_dir import CONFIG_FILE, METRICS_FILE
-from services.train_config import TrainConfig
+from services.training.run_dir import CONFIG_FILE, METRICS_FILE
+from services.training.config import TrainConfig
 
 OBS_DIM = observation_dim(len(EnvConfig().reference_obs_steps))  # the default env's observation
 
@@ -69,7 +69,7 @@ def exported(tiny_run, tmp_path_factory):
 
 def test_onnx_matches_the_torch_policy_and_numpy_policy(tiny_run, exported):
     from learner.policy import NumpyPolicy
-    from services.evaluate import load_run
+    from services.training.run_dir import load_run
 
     _, learner = tiny_run
     rng = np.random.default_rng(7)

@@ -9,9 +9,9 @@ import pytest
 from actors import quaternion as qn
 from actors.motion_io import load_motion
 from services.cli import main
-from services.evaluate import evaluate_policy
+from services.training.evaluation import evaluate_policy
 from actors.bvh import load_bvh_motion
-from services.export.policy_source import load_policy_source
+from services.training.policy_source import load_policy_source
 from tests.test_export_onnx import make_tiny_run
 
 pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")

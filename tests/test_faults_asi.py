@@ -23,9 +23,9 @@ from learner.checkpoint import latest_checkpoint, load_checkpoint
 from learner.config import PPOConfig
 from learner.ppo import PPOLearner
 from services.cli import main
-from services.run_dir import CONFIG_FILE, checkpoint_files
-from services.train_config import TrainConfig
-from services.trainer import Trainer
+from services.training.run_dir import CONFIG_FILE, checkpoint_files
+from services.training.config import TrainConfig
+from services.training.driver import Trainer
 from tests.asi_helpers import ServerProcess
 from tests.redis_fixture import free_port
 from tests.test_faults_support import TINY_RUN, TrainProcess, wait_for

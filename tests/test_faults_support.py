@@ -12,7 +12,7 @@ import sys
 import time
 from pathlib import Path
 
-from services.run_dir import read_metrics
+from services.training.run_dir import read_metrics
 
 REPO = Path(__file__).resolve().parents[1]
 # Small and fast: 256-sample iterations, 64-32 MLPs, an ASI step every 8 episodes, a checkpoint per iteration.

@@ -8,7 +8,7 @@ import sys
 import pytest
 
 from actors.motion_io import load_motion
-from services.run_dir import read_metrics
+from services.training.run_dir import read_metrics
 
 pytestmark = pytest.mark.integration
 

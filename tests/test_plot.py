@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from services.cli import main
-from services.plotting import INIT_COLOURS, plot_learning_curves, smooth
-from services.run_dir import CONFIG_FILE, METRICS_FILE
+from services.training.curves import INIT_COLOURS, plot_learning_curves, smooth
+from services.training.run_dir import CONFIG_FILE, METRICS_FILE
 
 
 def make_run(path, init: str, returns) -> None:

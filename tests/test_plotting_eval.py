@@ -7,8 +7,8 @@ import imageio.v2 as imageio
 import numpy as np
 
 from services.cli import main
-from services.plotting import INIT_COLOURS, eval_curve, plot_learning_curves
-from services.run_dir import CONFIG_FILE, METRICS_FILE
+from services.training.curves import INIT_COLOURS, eval_curve, plot_learning_curves
+from services.training.run_dir import CONFIG_FILE, METRICS_FILE
 
 
 def make_run(path, init: str, evaluations: bool) -> None:

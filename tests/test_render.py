@@ -7,8 +7,8 @@ import pytest
 
 from learner.errors import SfvError
 from services.cli import main
-from services.evaluate import evaluate_policy
-from services.export.policy_source import load_policy_source
+from services.training.evaluation import evaluate_policy
+from services.training.policy_source import load_policy_source
 from services.export.rollout import episode_steps
 from services.render.movie import RenderConfig, render_policy
 from services.render.pushes import PushConfig, PushSchedule, apply_push

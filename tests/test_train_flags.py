@@ -8,7 +8,7 @@ import pytest
 
 from learner.errors import SfvError
 from services.commands import train
-from services.trainer import _set_torch_threads
+from services.training.driver import _set_torch_threads
 
 
 def parse(*argv: str) -> argparse.Namespace:

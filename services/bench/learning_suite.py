@@ -5,8 +5,8 @@
               [--serial] [--eval-every 200k] [--eval-episodes 8] [--batch-size 4096] [--minibatch-size 256] [--final-episodes 32]
 
 A grid of skills x inits x seeds at one sample budget. Every cell is one ordinary training
-run (`services.trainer.Trainer`, the code `sfv train` runs) into OUT_DIR/runs/<clip>_<init>_s<seed>/;
-when it has finished, the run's newest checkpoint is evaluated with `services.evaluate.evaluate_run`
+run (`services.training.driver.Trainer`, the code `sfv train` runs) into OUT_DIR/runs/<clip>_<init>_s<seed>/;
+when it has finished, the run's newest checkpoint is evaluated with `services.training.evaluation.evaluate_run`
 (deterministic policy, `--final-episodes` episodes) and its learning curve is read back from
 metrics.jsonl (training normalised return per iteration, and the `eval/...` rows the trainer
 writes every `--eval-every` samples). Everything goes into OUT_DIR/learning.json, rewritten
@@ -59,11 +59,11 @@ RESULTS_FILE = "learning.json"
 PLOT_FILE = "learning.png"
 RUNS_DIR = "runs"
 DEFAULT_SKILLS = ("deepmimic:walk", "deepmimic:run", "deepmimic:backflip", "deepmimic:cartwheel")
-INITS = ("asi", "rsi", "fsi")  # services.train_config.INIT_MODES
+INITS = ("asi", "rsi", "fsi")  # services.training.config.INIT_MODES
 THRESHOLD = 0.8
 DEFAULT_SAMPLES = 2_000_000
 EVAL_POINTS = 10  # default --eval-every: the budget / this
-SMOOTHING = 0.8  # EMA weight of training curves, as services.plotting draws them
+SMOOTHING = 0.8  # EMA weight of training curves, as services.training.curves draws them
 # Settings that make a run what it is; a run directory trained with others is not resumed into.
 IDENTITY = {"motion": ("motion",), "init": ("init",), "seed": ("seed",), "batch_size": ("ppo", "batch_size"),
             "minibatch_size": ("ppo", "minibatch_size"), "physics_hz": ("env", "physics", "physics_hz")}
@@ -222,7 +222,7 @@ def cells(config: LearningConfig) -> list[Cell]:
 
 def train_config(config: LearningConfig, cell: Cell):
     from actors.humanoid import PhysicsConfig
-    from services.train_config import TrainConfig
+    from services.training.config import TrainConfig
 
     train = TrainConfig(motion=cell.skill, out=str(run_dir_of(config, cell)), workers=config.workers,
                         envs_per_worker=config.envs_per_worker, init=cell.init, samples=config.samples, seed=cell.seed,
@@ -263,7 +263,7 @@ def _dig(d: dict, path: tuple[str, ...]):
 
 def check_existing(config: LearningConfig, grid: list[Cell]) -> dict:
     """The results so far (a fresh document when there is none); SfvError if a run directory holds another run."""
-    from services.run_dir import CONFIG_FILE
+    from services.training.run_dir import CONFIG_FILE
 
     for cell in grid:
         saved_path = run_dir_of(config, cell) / CONFIG_FILE
@@ -303,7 +303,7 @@ def config_summary(config: LearningConfig, train) -> dict:
 
 def read_curve(run_dir: Path) -> dict:
     """Training and evaluation curves from the run's metrics.jsonl (an eval row may be its own line or part of an iteration's)."""
-    from services.run_dir import read_metrics
+    from services.training.run_dir import read_metrics
 
     train = {"samples": [], "normalized_return": [], "fall_rate": [], "episode_length": []}
     evals: list[dict] = []
@@ -323,7 +323,7 @@ def read_curve(run_dir: Path) -> dict:
 def samples_to_threshold(curve: dict, final_samples: int, final_nr, threshold: float) -> tuple[int | None, str]:
     """First sample count at which NR >= threshold: eval rows where there are any, else the smoothed
     training curve; the final evaluation counts as a last point either way."""
-    from services.plotting import smooth
+    from services.training.curves import smooth
 
     import numpy as np
 
@@ -379,9 +379,9 @@ def run_grid(config: LearningConfig, grid: list[Cell], doc: dict, command: str |
 
 
 def _run_cell(config: LearningConfig, cell: Cell, previous: dict | None, doc: dict, info: dict, log) -> dict:
-    from services.evaluate import evaluate_run
-    from services.run_dir import checkpoint_files
-    from services.trainer import Trainer
+    from services.training.evaluation import evaluate_run
+    from services.training.run_dir import checkpoint_files
+    from services.training.driver import Trainer
 
     run_dir = run_dir_of(config, cell)
     train = train_config(config, cell)
@@ -432,7 +432,7 @@ def _run_cell(config: LearningConfig, cell: Cell, previous: dict | None, doc: di
 
 
 def _clear_unfinished(run_dir: Path) -> None:
-    from services.run_dir import CONFIG_FILE, METRICS_FILE
+    from services.training.run_dir import CONFIG_FILE, METRICS_FILE
 
     for name in (METRICS_FILE, CONFIG_FILE, "learning_curve.png"):
         (run_dir / name).unlink(missing_ok=True)
@@ -440,7 +440,7 @@ def _clear_unfinished(run_dir: Path) -> None:
 
 
 def _save(doc: dict, cell: Cell, entry: dict, config: LearningConfig) -> None:
-    from services.run_dir import write_json_atomic
+    from services.training.run_dir import write_json_atomic
 
     doc["runs"][cell.name] = entry
     doc["updated"] = _now()
@@ -448,13 +448,9 @@ def _save(doc: dict, cell: Cell, entry: dict, config: LearningConfig) -> None:
 
 
 def _start_ray(workers: int) -> bool:
-    import ray
+    from services.ray_session import connect_ray
 
-    if ray.is_initialized():
-        return False
-    # address="local": a private single-node Ray, never a cluster someone else started here.
-    ray.init(address="local", num_cpus=workers, include_dashboard=False, log_to_driver=False, configure_logging=False)
-    return True
+    return connect_ray(num_cpus=workers, log_to_driver=False)
 
 
 def _plain(value):
@@ -534,7 +530,7 @@ def plot(doc: dict, out: Path, skills=()) -> Path:
     import numpy as np
     from matplotlib.ticker import EngFormatter
 
-    from services.plotting import INIT_COLOURS, LINE_STYLES, save_figure, smooth
+    from services.training.curves import INIT_COLOURS, LINE_STYLES, save_figure, smooth
 
     names = _ordered_skills(doc, skills) or ["no runs"]
     ncols = min(2, len(names))

@@ -17,12 +17,14 @@ import tempfile
 from pathlib import Path
 
 from actors.motion_io import load_motion
-from services.bench import peer_probe
 from services.bench.config import TARGET_OURS_OVER_PEER_1200HZ, BenchConfig
 from services.bench.env_suite import add_ratio_pair, env_config_for, step_summaries
 from services.bench.measure import Rates, interleaved, rate_for
 from services.bench.result import SuiteResult
 from services.bench.steppers import EnvStepper
+
+# Run as a script (under another interpreter when given), never imported here: it installs gym shims.
+PEER_PROBE = Path(__file__).with_name("peer_probe.py")
 
 START_TIMEOUT_S = 120.0
 
@@ -36,7 +38,7 @@ class PeerProcess:
 
     def __init__(self, python: str, physics_hz: float, action_noise: float, seed: int):
         self._stderr = tempfile.TemporaryFile()
-        command = [python, str(Path(peer_probe.__file__)), "--physics-hz", repr(physics_hz),
+        command = [python, str(PEER_PROBE), "--physics-hz", repr(physics_hz),
                    "--action-noise", repr(action_noise), "--seed", str(seed)]
         self.proc = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._stderr, text=True)
         hello = self._read(START_TIMEOUT_S)

@@ -1,10 +1,9 @@
 """The benchmark report as a Markdown table, and its atomic JSON file."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-from learner.atomic_io import atomic_write_text
+from learner.atomic_io import atomic_write_json
 
 
 def _number(value: float) -> str:
@@ -34,4 +33,4 @@ def markdown_table(report: dict) -> str:
 
 def write_json_atomic(path: Path, report: dict) -> None:
     """Temp file in the same directory, then os.replace: never a half-written report."""
-    atomic_write_text(path, json.dumps(report, indent=2) + "\n")
+    atomic_write_json(path, report)

@@ -1,6 +1,6 @@
 """Suite `system`: end-to-end `sfv train` throughput against the physics bound.
 
-Each repetition runs the real training driver (`services.trainer.Trainer`: Ray actors,
+Each repetition runs the real training driver (`services.training.driver.Trainer`: Ray actors,
 embedded ASI server, PPO learner, metrics, checkpoint, learning-curve plot) for a few
 iterations with 1 and with 2 workers, and times the raw physics bound on one core in
 between. Reported: `overall_samples_per_s` of each run (samples over the training loop's
@@ -21,7 +21,7 @@ from services.bench.steppers import RawPhysics
 
 
 def train_config(config: BenchConfig, out: Path, workers: int, iterations: int):
-    from services.train_config import TrainConfig
+    from services.training.config import TrainConfig
 
     train = TrainConfig(motion=config.motion, out=str(out), workers=workers, envs_per_worker=config.envs_per_worker,
                         init="asi", seed=config.seed, env=env_config_for(config.physics_hz))
@@ -32,15 +32,12 @@ def train_config(config: BenchConfig, out: Path, workers: int, iterations: int):
 def run_system_suite(config: BenchConfig, log) -> SuiteResult:
     import ray
 
-    from services.trainer import Trainer
+    from services.ray_session import connect_ray
+    from services.training.driver import Trainer
 
     if any(w < 1 for w in config.system_workers):
         raise ValueError(f"system_workers must be >= 1, got {config.system_workers}")
-    started_ray = not ray.is_initialized()
-    if started_ray:
-        # address="local": a private single-node Ray, never a cluster someone else started here.
-        ray.init(address="local", num_cpus=max(config.system_workers), include_dashboard=False,
-                 log_to_driver=False, configure_logging=False)
+    started_ray = connect_ray(num_cpus=max(config.system_workers), log_to_driver=False)
     raw = RawPhysics(env_config_for(config.physics_hz))
     records: dict[int, list[dict]] = {w: [] for w in config.system_workers}
     try:

@@ -10,7 +10,7 @@ DeepMimic's contact rule (any link but the feet, and those the clip allows, on t
 plus a pelvis-height floor. Keys: normalized_return (+ _std), fall_rate, episode_length,
 episode_seconds, joint_rotation_error_rad, end_effector_error_m, distance_ratio (looped clips),
 divergences, episodes; with --push: pushes, push_impulse_ns, push_duration_s, push_episodes,
-push_survival_rate. `services/evaluate.py` defines each.
+push_survival_rate. `services/training/evaluation.py` defines each.
 """
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ import argparse
 import json
 import math
 
-# The same numbers as services.evaluate's (imported lazily: every sfv command builds this parser).
+# The same numbers as services.training.evaluation's (imported lazily: every sfv command builds this parser).
 DEFAULT_EPISODES = 32
 PUSH_RECOVERY_S = 1.0
 
@@ -74,7 +74,7 @@ def _number(flag: str, text: str, positive: bool) -> float:
 
 def run(args) -> int:
     from learner.errors import SfvError
-    from services.evaluate import evaluate_run
+    from services.training.evaluation import evaluate_run
 
     episodes = _integer("--episodes", args.episodes, 1)
     pushes = _integer("--push", args.push, 0)

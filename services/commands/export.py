@@ -61,7 +61,7 @@ def export_rollouts(args) -> list[dict]:
 
     from actors.motion_io import save_motion
     from actors.bvh import write_bvh
-    from services.export.policy_source import load_policy_source
+    from services.training.policy_source import load_policy_source
     from services.export.rollout import record_episode
 
     source = load_policy_source(args.run, args.policy_onnx)

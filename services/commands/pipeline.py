@@ -36,9 +36,10 @@ def run(args) -> int:
     from actors.motion_io import save_motion
     from services.pose import estimate_video
     from services.pose.video import probe_video
+    from services.ray_session import connect_ray
     from services.reconstruction import ReconstructionConfig, reconstruct_on_ray
-    from services.trainer import Trainer
-    from services.train_config import TrainConfig
+    from services.training.driver import Trainer
+    from services.training.config import TrainConfig
 
     probe_video(args.video)  # missing file / not a video / no frames: one-line error before any work
     out: Path = args.out
@@ -48,12 +49,7 @@ def run(args) -> int:
     config = ReconstructionConfig()
     if args.iterations is not None:
         config = dataclasses.replace(config, iterations=args.iterations)
-    started_ray = not ray.is_initialized()
-    if started_ray:
-        if args.ray_address:
-            ray.init(address=args.ray_address, log_to_driver=False)
-        else:
-            ray.init(include_dashboard=False, configure_logging=False, log_to_driver=False)
+    started_ray = connect_ray(args.ray_address, log_to_driver=False)
     try:
         track = estimate_video(args.video, models_dir=args.pose_models, use_ray=True)
         track.save(out / "track.npz")

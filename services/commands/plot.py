@@ -21,8 +21,8 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from learner.errors import SfvError
-    from services.plotting import learning_curve, plot_learning_curves
-    from services.run_dir import CONFIG_FILE, METRICS_FILE
+    from services.training.curves import learning_curve, plot_learning_curves
+    from services.training.run_dir import CONFIG_FILE, METRICS_FILE
 
     out = Path(args.out)
     if out.suffix.lower() != ".png":

@@ -44,23 +44,14 @@ def run_reconstruct(args: argparse.Namespace) -> int:
     from services.pose import PoseTrack, estimate_video
     from services.pose.video import probe_video
     from services.reconstruction import ReconstructionConfig, reconstruct_on_ray, reconstruct_track
-    from services.ray_session import start_local_ray
+    from services.ray_session import connect_ray
 
     _check_args(args)
     started = time.perf_counter()
     info = probe_video(args.video)  # missing file, not a video, no frames: one-line errors before any work
     config = dataclasses.replace(ReconstructionConfig(), iterations=args.iterations)
     use_ray = not args.serial
-    ray_started = False
-    if use_ray:
-        import ray
-
-        if not ray.is_initialized():
-            if args.ray_address:
-                ray.init(address=args.ray_address, logging_level="ERROR")
-            else:
-                start_local_ray()
-            ray_started = True
+    ray_started = connect_ray(args.ray_address) if use_ray else False
     try:
         if args.track is not None:
             track = PoseTrack.load(args.track)

@@ -49,7 +49,7 @@ def run(args) -> int:
     import dataclasses
 
     import services.render  # noqa: F401  (sets MUJOCO_GL before anything below can import mujoco)
-    from services.export.policy_source import load_policy_source
+    from services.training.policy_source import load_policy_source
     from services.render.movie import render_policy
     from services.render.video_writer import check_video_path
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import json
 import logging
 
-INIT_MODES = ("asi", "rsi", "fsi")  # services.train_config.INIT_MODES, repeated to keep `sfv` start-up light
+INIT_MODES = ("asi", "rsi", "fsi")  # services.training.config.INIT_MODES, repeated to keep `sfv` start-up light
 
 
 def register(sub) -> None:
@@ -70,8 +70,8 @@ def build_config(args):
 
     from learner.errors import SfvError
     from actors.humanoid import PhysicsConfig
-    from services.run_dir import CONFIG_FILE
-    from services.train_config import TrainConfig
+    from services.training.run_dir import CONFIG_FILE
+    from services.training.config import TrainConfig
 
     saved = Path(args.out) / CONFIG_FILE
     if args.resume and saved.exists():
@@ -202,7 +202,7 @@ def _layer_sizes(text: str) -> tuple[int, ...]:
 
 
 def run(args) -> int:
-    from services.trainer import Trainer
+    from services.training.driver import Trainer
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     config = build_config(args)

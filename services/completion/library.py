@@ -16,7 +16,7 @@ from actors.imitation_env import ImitationEnv
 from actors.motion_io import load_motion
 from learner.policy import NumpyPolicy
 from actors.skeleton import NUM_JOINTS
-from services.run_dir import CONFIG_FILE
+from services.training.run_dir import CONFIG_FILE
 
 
 @dataclass
@@ -54,7 +54,7 @@ def reference_rotations(env: ImitationEnv) -> tuple[np.ndarray, np.ndarray]:
 
 
 def load_skill(run_dir: str | Path) -> Skill:
-    from services.evaluate import load_run
+    from services.training.run_dir import load_run
 
     run_dir = Path(run_dir)
     config, weights = load_run(run_dir)

@@ -20,7 +20,7 @@ def export_run_onnx(run_dir: str | Path, out: str | Path, seed: int = 0) -> dict
     """
     from learner.policy import NumpyPolicy
     from learner.onnx_export import OnnxPolicy, export_policy_onnx
-    from services.evaluate import load_run
+    from services.training.run_dir import load_run
 
     out = Path(out)
     if out.suffix.lower() != ".onnx":

@@ -4,7 +4,7 @@
 step, so a caller can look at (render, record) or act on (push) `env.data` in between.
 Episode k resets with seed `seed + k` and the given init (FSI or RSI) and ends where the env's
 own termination ends it. `sfv eval` scores differently on purpose: episodes at evenly spaced
-phases and the strict fall rule whatever the training's termination (`services/evaluate.py`).
+phases and the strict fall rule whatever the training's termination (`services/training/evaluation.py`).
 """
 from __future__ import annotations
 

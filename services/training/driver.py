@@ -1,19 +1,17 @@
 """The training driver: rollout workers -> PPO learner -> weights -> workers, ASI alongside.
 
 Roles follow RLlib's new stack / sample-factory: `RolloutWorker`s (actors/) only sample,
-`PPOLearner` (learner/) only updates, and this driver moves weights out through the Ray
-object store and trajectories back as numpy arrays. `serial=True` runs the same workers in
-this process without Ray (debugging, CI, machines without Ray).
+`PPOLearner` (learner/) only updates, a `WorkerRunner` (runners/: in this process, Ray
+actors, or plain processes; `--runner`) carries weights out and trajectories back as numpy
+arrays, and this driver runs the loop: collect, check, update, record, evaluate, checkpoint.
 
-Faults (docs/faults.md has the measured numbers): a worker that dies is restarted by Ray
-(`max_restarts=-1`); its share of the batch is handed to a worker that is alive, so an
-iteration never waits on a dead process (`worker_failures`, `worker_restarts` in
-metrics.jsonl). A worker that hangs past `worker_timeout_s` is killed and restarted the same
-way. A worker that raises SfvError (ASI server gone for longer than `asi_outage_s`, a request
-the server refuses) stops training with that message. Every batch is checked to come from
-one policy version. A non-finite observation, reward or gradient stops training with a
-message naming it, before any checkpoint could be poisoned. `--resume` skips (with a
-warning) a newest checkpoint that fails its integrity check and resumes from the one before.
+Faults (docs/faults.md has the measured numbers): the Ray runner restarts dead and hung
+workers and reissues their shares (`worker_failures`, `worker_restarts` in metrics.jsonl). A
+worker that raises SfvError (ASI server gone for longer than `asi_outage_s`, a request the
+server refuses) stops training with that message. Every batch is checked to come from one
+policy version. A non-finite observation, reward or gradient stops training with a message
+naming it, before any checkpoint could be poisoned. `--resume` skips (with a warning) a
+newest checkpoint that fails its integrity check and resumes from the one before.
 """
 from __future__ import annotations
 
@@ -32,10 +30,11 @@ from actors.rollout_worker import RolloutWorker, WorkerSpec
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
 from learner.errors import NonFiniteError
 from learner.ppo import PPOLearner
-from services.asi_setup import ASIConnection
-from services.run_dir import (CONFIG_FILE, MetricsLog, checkpoint_files, drop_metrics_after, remove_stale_temp_files,
+from services.training.asi_connection import ASIConnection
+from services.training.run_dir import (CONFIG_FILE, MetricsLog, checkpoint_files, drop_metrics_after, remove_stale_temp_files,
                               write_json_atomic)
-from services.train_config import TrainConfig
+from services.training.config import TrainConfig
+from services.training.runners import WorkerFaults, WorkerRunner, make_runner
 
 log = logging.getLogger("sfv.train")
 TRAJECTORY_KEYS = ("obs", "next_obs", "actions", "logp", "rewards", "terminated", "truncated")
@@ -47,7 +46,7 @@ def default_job_id(config: TrainConfig) -> str:
 
 
 class Trainer:
-    worker_class = RolloutWorker  # what `_make_workers` instantiates (a subclass may wrap it)
+    worker_class = RolloutWorker  # what the runner instantiates (a test's subclass may wrap it)
 
     def __init__(self, config: TrainConfig, resume: bool = False, progress: bool = True):
         if config.ppo.reward_max is not None:  # value targets are bounded by this env's own reward
@@ -57,9 +56,8 @@ class Trainer:
         self.resume = resume
         self.progress = progress
         self.run_dir = Path(config.out)
-        self.worker_failures = 0  # batch shares lost to a dead, hung or failing worker and reissued
-        self.worker_restarts = 0  # worker processes seen replaced by Ray (a new pid)
-        self._worker_pids: dict[int, int] = {}
+        self.faults = WorkerFaults()
+        self.runner: WorkerRunner | None = None
         self.samples = 0
         self.iteration = 0
 
@@ -89,43 +87,6 @@ class Trainer:
         states = np.stack([env.reference_state_vector(r) for r in rows])
         return env, states, env.track.phase[rows]
 
-    def _make_workers(self, spec: WorkerSpec):
-        n = self.config.workers
-        if self.config.serial:
-            workers = [self.worker_class(spec, i) for i in range(n)]
-            self._worker_pids = {i: w.pid() for i, w in enumerate(workers)}
-            return workers
-        import ray
-
-        remote_cls = ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=0)(self.worker_class)
-        workers = [remote_cls.remote(spec, i) for i in range(n)]
-        pids = ray.get([w.pid.remote() for w in workers])  # construction errors surface here
-        self._worker_pids = dict(enumerate(pids))
-        return workers
-
-    def _init_ray(self):
-        if self.config.serial:
-            return
-        import ray
-
-        if ray.is_initialized():
-            return
-        if self.config.ray_address:
-            ray.init(address=self.config.ray_address, log_to_driver=True)
-            return
-        # A local Ray's raylet can miss Ray's fixed 30 s registration deadline on a busy 2-core
-        # machine (seen once in ~10 CI runs), and its GCS server the 30 s port-file deadline
-        # (seen when two runs started at once): try a second time before giving up.
-        for attempt in (1, 2):
-            try:
-                ray.init(num_cpus=max(self.config.workers, 1), include_dashboard=False, log_to_driver=True, configure_logging=False)
-                return
-            except Exception as exc:  # Ray raises a bare Exception for this
-                if attempt == 2:  # any start failure (raylet registration, GCS port file) gets a second try
-                    raise
-                log.warning("local Ray did not start in time (%s); trying once more", exc)
-                ray.shutdown()
-
     # ------------------------------------------------------------- collection
     def _horizon_s(self) -> float | None:
         """The episode-length curriculum's limit now (DeepMimic: 0.5 s annealed to 20 s over
@@ -136,87 +97,10 @@ class Trainer:
         progress = self.samples / c.curriculum_samples
         return c.curriculum_start_s + progress * (c.env.horizon_s - c.curriculum_start_s)
 
-    def _collect(self, workers, weights, version: int, steps: int) -> list[dict]:
+    def _collect(self, weights, version: int, steps: int) -> list[dict]:
         horizon = self._horizon_s()
         options = {} if horizon is None else {"horizon_s": horizon}  # RolloutWorker.sample's optional arguments
-        if self.config.serial:
-            results = [w.sample(weights, version, steps, **options) for w in workers]
-        else:
-            results = self._collect_remote(workers, weights, version, steps, options)
-        for result in results:
-            self._note_worker_pid(int(result["worker_index"]), int(result["worker_pid"]))
-        return results
-
-    def _collect_remote(self, workers, weights, version: int, steps: int, options: dict | None = None) -> list[dict]:
-        """One share per worker; a share lost to a dead or hung worker goes to a worker that has answered."""
-        import ray
-        from ray.exceptions import RayError, RayTaskError
-
-        weights_ref = ray.put(weights)
-        pending: dict = {}  # object ref -> worker index
-        results, idle, orphans, failures = [], [], [], 0  # idle: answered, free; orphans: lost shares, no taker yet
-        takebacks = 0
-        max_failures = 3 * len(workers)  # beyond this the fault is not transient: stop, do not spin
-
-        options = options or {}
-
-        def submit(index: int) -> None:
-            pending[workers[index].sample.remote(weights_ref, version, steps, **options)] = index
-
-        def lost(index: int, reason: str) -> None:
-            nonlocal failures
-            failures += 1
-            self.worker_failures += 1
-            if failures > max_failures:
-                raise SfvError(f"rollout workers failed {failures} times in iteration {version + 1}, giving up (last: worker {index}: {reason})")
-            log.warning("rollout worker %d failed (%s); its share is reissued", index, reason)
-            if idle:
-                submit(idle.pop(0))
-            else:
-                orphans.append(index)
-
-        for index in range(len(workers)):
-            submit(index)
-        while pending or orphans:
-            if not pending:  # nobody left to answer: the restarted workers take their own shares back
-                time.sleep(min(5.0, 0.5 * 2 ** takebacks))  # give Ray time to restart them; do not burn retries
-                takebacks += 1
-                for index in orphans:
-                    submit(index)
-                orphans.clear()
-            ready, _ = ray.wait(list(pending), num_returns=1, timeout=self.config.worker_timeout_s)
-            if not ready:  # every outstanding worker hangs: kill them (Ray restarts them)
-                for ref, index in list(pending.items()):
-                    del pending[ref]
-                    ray.kill(workers[index], no_restart=False)
-                    lost(index, f"no answer within {self.config.worker_timeout_s:g} s, killed")
-                continue
-            for ref in ready:
-                index = pending.pop(ref)
-                try:
-                    result = ray.get(ref)
-                except RayTaskError as exc:
-                    cause = getattr(exc, "cause", None)
-                    if isinstance(cause, SfvError):  # a refused request or a lasting outage: not the worker's fault
-                        raise SfvError(f"rollout worker {index}: {cause}") from None
-                    lost(index, f"{type(cause or exc).__name__}: {str(cause or exc).splitlines()[0][:200]}")
-                except RayError as exc:  # the process died (Ray restarts it) or its result was lost
-                    lost(index, type(exc).__name__)
-                else:
-                    results.append(result)
-                    if orphans:  # this worker is free now: it takes over a lost share
-                        orphans.pop(0)
-                        submit(index)
-                    else:
-                        idle.append(index)
-        return results
-
-    def _note_worker_pid(self, index: int, pid: int) -> None:
-        previous = self._worker_pids.get(index)
-        if previous is not None and previous != pid:
-            self.worker_restarts += 1
-            log.warning("rollout worker %d was restarted (pid %d -> %d)", index, previous, pid)
-        self._worker_pids[index] = pid
+        return self.runner.collect(weights, version, steps, options)
 
     @staticmethod
     def _merge(results: list[dict], version: int) -> dict:
@@ -234,6 +118,17 @@ class Trainer:
         return batch
 
     # -------------------------------------------------------------------- run
+    def close(self) -> None:
+        """Stop the workers the runner started (the processes runner's; Ray actors go with Ray)."""
+        if self.runner is not None:
+            self.runner.close()
+
+    def __enter__(self) -> "Trainer":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
     def run(self) -> dict:
         config = self.config
         checkpoint = self._prepare_run_dir()
@@ -250,11 +145,11 @@ class Trainer:
             spec = WorkerSpec(motion, config.env, config.envs_per_worker, config.init, config.seed, config.ppo.gamma,
                               asi.address, config.job_id, asi.token, asi_tls_ca=config.asi_tls_ca,
                               asi_outage_s=config.asi_outage_s)
-            self._init_ray()
-            workers = self._make_workers(spec)
+            self.runner = make_runner(config, self.worker_class, self.faults)
+            self.runner.start(spec)
             metrics = MetricsLog(self.run_dir, resumed_at_samples=self.samples if checkpoint is not None else None)
             try:
-                return self._loop(learner, workers, metrics, max(asi_version, info.version))
+                return self._loop(learner, metrics, max(asi_version, info.version))
             finally:
                 metrics.close()
 
@@ -263,19 +158,19 @@ class Trainer:
         learner.load_state_dict(checkpoint["learner"])
         self.samples = int(checkpoint["samples"])
         self.iteration = int(checkpoint["iteration"])
-        self.worker_failures = int(checkpoint.get("worker_failures", 0))
-        self.worker_restarts = int(checkpoint.get("worker_restarts", 0))
+        self.faults.failures = int(checkpoint.get("worker_failures", 0))
+        self.faults.restarts = int(checkpoint.get("worker_restarts", 0))
         dropped = drop_metrics_after(self.run_dir, self.samples)
         if dropped:
             log.warning("%s: dropped %d metrics rows written after the checkpoint (iterations redone now)", self.run_dir, dropped)
         return int(checkpoint.get("asi_version", 0))
 
-    def _loop(self, learner: PPOLearner, workers, metrics: MetricsLog, asi_version: int) -> dict:
+    def _loop(self, learner: PPOLearner, metrics: MetricsLog, asi_version: int) -> dict:
         import sys
 
         from tqdm import tqdm
 
-        from services.evaluate import TrainingEvaluator
+        from services.training.evaluation import TrainingEvaluator
 
         config = self.config
         steps = config.steps_per_worker
@@ -287,7 +182,7 @@ class Trainer:
         while self.samples < config.samples:
             t0 = time.perf_counter()
             version = self.iteration
-            results = self._collect(workers, learner.policy_weights(), version, steps)
+            results = self._collect(learner.policy_weights(), version, steps)
             batch = self._merge(results, version)
             t_sample = time.perf_counter() - t0
             losses = self._update(learner, batch)
@@ -348,8 +243,8 @@ class Trainer:
             "asi_version": int(asi_version),
             "charts/horizon_s": self._horizon_s() or self.config.env.horizon_s,
             "asi_dropped_reports": int(batch["asi_dropped_reports"]),
-            "worker_failures": self.worker_failures,
-            "worker_restarts": self.worker_restarts,
+            "worker_failures": self.faults.failures,
+            "worker_restarts": self.faults.restarts,
             "policy_version": batch["policy_versions"][0],
             "batch_policy_versions": batch["policy_versions"],
             "batch_worker_indices": batch["worker_indices"],
@@ -365,8 +260,8 @@ class Trainer:
             "samples": self.samples,
             "iteration": self.iteration,
             "asi_version": int(asi_version),
-            "worker_failures": self.worker_failures,
-            "worker_restarts": self.worker_restarts,
+            "worker_failures": self.faults.failures,
+            "worker_restarts": self.faults.restarts,
             "config": self.config.to_dict(),
         }
         save_checkpoint(checkpoint_path(self.run_dir, self.iteration), payload)
@@ -376,7 +271,7 @@ class Trainer:
 
     def _plot(self) -> None:
         try:
-            from services.plotting import plot_learning_curves
+            from services.training.curves import plot_learning_curves
 
             plot_learning_curves([self.run_dir], self.run_dir / "learning_curve.png")
         except Exception as exc:  # a plot must never stop training

@@ -6,14 +6,13 @@ come from the run's config.json when a run is given, else the defaults with `--m
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 from learner.errors import SfvError
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.motion_io import load_motion
-from services.run_dir import CONFIG_FILE
+from services.training.run_dir import load_run, read_run_config
 
 
 @dataclass
@@ -25,19 +24,6 @@ class PolicySource:
 
     def make_env(self) -> ImitationEnv:
         return ImitationEnv(load_motion(self.motion), self.env_config)
-
-
-def read_run_config(run_dir: str | Path):
-    """The run's TrainConfig from config.json alone (no checkpoint, no torch)."""
-    from services.train_config import TrainConfig
-
-    path = Path(run_dir) / CONFIG_FILE
-    if not path.is_file():
-        raise SfvError(f"{run_dir}: not a run directory (no {CONFIG_FILE})")
-    try:
-        return TrainConfig.from_dict(json.loads(path.read_text()))
-    except (ValueError, TypeError) as exc:
-        raise SfvError(f"{path}: unreadable run config ({type(exc).__name__}: {exc})") from None
 
 
 def load_policy_source(run_dir: str | Path | None, onnx: str | Path | None = None, motion: str | None = None) -> PolicySource:
@@ -58,8 +44,6 @@ def load_policy_source(run_dir: str | Path | None, onnx: str | Path | None = Non
         description = Path(onnx).name
     else:
         from learner.policy import NumpyPolicy
-        from services.evaluate import load_run
-
         config, weights = load_run(run_dir)
         env_config, motion_name = config.env, motion or config.motion
         policy = NumpyPolicy(weights, max_batch=1)

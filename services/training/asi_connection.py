@@ -16,7 +16,7 @@ import numpy as np
 
 from actors.asi_client import ASIClient
 from learner.errors import SfvError
-from services.train_config import TrainConfig
+from services.training.config import TrainConfig
 
 
 class ASIConnection:

@@ -46,7 +46,6 @@ push_survival_rate is the fraction of the episodes long enough to hold all N pus
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from pathlib import Path
 
@@ -56,34 +55,12 @@ from learner.errors import SfvError
 from actors.falls import FallDetector
 from actors.features import NUM_REWARD_QUATS, RewardFeatures
 from actors.imitation_env import ImitationEnv
-from services.run_dir import CONFIG_FILE
-from services.train_config import TrainConfig
+from services.training.config import TrainConfig
 
 DEFAULT_EPISODES = 32  # sfv eval
 PUSH_RECOVERY_S = 1.0  # no push starts later than this before an episode's end
 TRAVEL_M = 0.05  # a looped clip whose root moves less than this per cycle has no distance_ratio
 _NUM_JOINTS = NUM_REWARD_QUATS - 1 + 4  # 8 ball joints + 4 hinges (the root's orientation is not a joint)
-
-
-def load_run(run_dir: str | Path) -> tuple[TrainConfig, dict]:
-    """The run's config and the newest checkpoint's policy weights (numpy)."""
-    from learner.checkpoint import load_checkpoint
-    from services.run_dir import checkpoint_files
-
-    run_dir = Path(run_dir)
-    config_path = run_dir / CONFIG_FILE
-    if not config_path.is_file():
-        raise SfvError(f"{run_dir}: not a run directory (no {CONFIG_FILE})")
-    config = TrainConfig.from_dict(json.loads(config_path.read_text()))
-    checkpoints = checkpoint_files(run_dir)
-    if not checkpoints:
-        raise SfvError(f"{run_dir}: no checkpoint yet")
-    # The newest, verified: a corrupt or tampered one is an error, never silently an older policy.
-    payload = load_checkpoint(checkpoints[-1])
-    if not isinstance(payload.get("policy_weights"), dict):
-        raise SfvError(f"{checkpoints[-1]}: checkpoint holds no policy weights")
-    weights = {k: v.numpy() if hasattr(v, "numpy") else np.asarray(v) for k, v in payload["policy_weights"].items()}
-    return config, weights
 
 
 # ------------------------------------------------------------------------------ metrics
@@ -254,7 +231,7 @@ def evaluate_run(run_dir: str | Path | None, episodes: int = DEFAULT_EPISODES, s
     from threadpoolctl import threadpool_limits
 
     from actors.motion_io import load_motion
-    from services.export.policy_source import load_policy_source
+    from services.training.policy_source import load_policy_source
 
     source = load_policy_source(run_dir, onnx, motion)
     env = make_eval_env(load_motion(source.motion), source.env_config)

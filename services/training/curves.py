@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from learner.atomic_io import atomic_output
-from services.run_dir import CONFIG_FILE, read_metrics
+from services.training.run_dir import CONFIG_FILE, read_metrics
 
 INIT_COLOURS = {"asi": "tab:blue", "rsi": "tab:orange", "fsi": "tab:green"}
 LINE_STYLES = ("-", "--", ":", "-.")

@@ -4,7 +4,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from learner.atomic_io import atomic_write_text
+from learner.atomic_io import atomic_write_json, atomic_write_text
+from learner.errors import SfvError
 
 CONFIG_FILE = "config.json"
 METRICS_FILE = "metrics.jsonl"
@@ -31,8 +32,40 @@ def remove_stale_temp_files(run_dir: Path) -> list[str]:
     return removed
 
 
+def read_run_config(run_dir: str | Path):
+    """The run's TrainConfig from config.json alone (no checkpoint, no torch)."""
+    from services.training.config import TrainConfig
+
+    path = Path(run_dir) / CONFIG_FILE
+    if not path.is_file():
+        raise SfvError(f"{run_dir}: not a run directory (no {CONFIG_FILE})")
+    try:
+        return TrainConfig.from_dict(json.loads(path.read_text()))
+    except (ValueError, TypeError) as exc:
+        raise SfvError(f"{path}: unreadable run config ({type(exc).__name__}: {exc})") from None
+
+
+def load_run(run_dir: str | Path):
+    """The run's TrainConfig and the newest checkpoint's policy weights (numpy)."""
+    import numpy as np
+
+    from learner.checkpoint import load_checkpoint
+
+    config = read_run_config(run_dir)
+    checkpoints = checkpoint_files(Path(run_dir))
+    if not checkpoints:
+        raise SfvError(f"{run_dir}: no checkpoint yet")
+    # The newest, verified: a corrupt or tampered one is an error, never silently an older policy.
+    payload = load_checkpoint(checkpoints[-1])
+    if not isinstance(payload.get("policy_weights"), dict):
+        raise SfvError(f"{checkpoints[-1]}: checkpoint holds no policy weights")
+    weights = {k: v.numpy() if hasattr(v, "numpy") else np.asarray(v) for k, v in payload["policy_weights"].items()}
+    return config, weights
+
+
 def write_json_atomic(path: Path, obj) -> None:
-    atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=True) + "\n")
+    """Run-directory JSON (config.json): sorted keys, so configs diff cleanly."""
+    atomic_write_json(path, obj, sort_keys=True)
 
 
 class MetricsLog:
