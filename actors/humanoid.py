@@ -5,7 +5,8 @@ character's kp, kd (`kv`, integrated implicitly by `implicitfast`) and torque li
 spherical joint is a MuJoCo ball joint with three position actuators whose gears are the
 joint's x, y, z axes: MuJoCo measures a ball joint's actuator length as the gear's component
 of the joint's rotation vector, so the three targets are the joint's exponential
-coordinates. Self-collision is off (as in DeepMimic); every link collides with the ground.
+coordinates. Self-collision is off (as in DeepMimic); every link collides with the ground,
+which is the arena's (`actors/arena.py`), composed in by `build_mjcf`.
 """
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from actors.arena import FlatFloor
 from actors.skeleton import (
     FALL_CONTACT_LINKS,
     HINGE_AXIS,
@@ -96,21 +98,11 @@ def _actuators_xml() -> str:
     return "\n    ".join(lines)
 
 
-def _floor_pairs_xml(config: PhysicsConfig) -> str:
-    """One explicit contact pair per link against the floor, the only contacts there are.
-
-    With every geom's contype/conaffinity at 0, MuJoCo skips its broad phase (which found
-    all the overlapping body pairs of the humanoid only to filter them out again): 7-10 %
-    of each physics step on this model, measured. Pairs do not inherit geom friction, so
-    it is given here; the trajectory is bit-identical to the contype-filtered model."""
-    friction = f"{config.friction} {config.friction} 0.005 0.0001 0.0001"
-    return "\n    ".join(f'<pair name="floor_{link.name}" geom1="floor" geom2="{link.name}_geom" condim="3" friction="{friction}"/>'
-                          for link in LINKS)
-
-
-def build_mjcf(config: PhysicsConfig = PhysicsConfig()) -> str:
-    """MJCF text of the humanoid on a ground plane. Contacts are explicit floor-link pairs
-    (`_floor_pairs_xml`): anything added to the scene that should collide needs its pairs."""
+def build_mjcf(config: PhysicsConfig = PhysicsConfig(), arena=None) -> str:
+    """MJCF text of the humanoid in an arena (`actors/arena.py`; a flat floor by default). The
+    arena brings its assets, world geoms and its contact pairs with the humanoid's geoms."""
+    arena = FlatFloor() if arena is None else arena
+    walker_geoms = [(link.name, f"{link.name}_geom") for link in LINKS]
     return f"""<mujoco model="sfv_humanoid3d">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{1.0 / config.physics_hz:.8g}" integrator="implicitfast"/>
@@ -119,15 +111,13 @@ def build_mjcf(config: PhysicsConfig = PhysicsConfig()) -> str:
     <geom contype="0" conaffinity="0" condim="3" friction="{config.friction} 0.005 0.0001" rgba="0.75 0.6 0.45 1"/>
   </default>
   <asset>
-    <texture name="grid" type="2d" builtin="checker" width="512" height="512" rgb1="0.82 0.84 0.86" rgb2="0.68 0.7 0.73"/>
-    <material name="grid" texture="grid" texrepeat="1 1" texuniform="true"/>
+    {arena.assets_xml()}
   </asset>
   <worldbody>
-    <light pos="0 0 4" dir="0 0 -1" directional="true"/>
-    <geom name="floor" type="plane" size="0 0 0.05" material="grid"/>
+    {arena.worldbody_xml()}
 {_body_xml(0, config, "    ")}  </worldbody>
   <contact>
-    {_floor_pairs_xml(config)}
+    {arena.contact_pairs_xml(walker_geoms, config.friction)}
   </contact>
   <actuator>
     {_actuators_xml()}
@@ -139,9 +129,10 @@ def build_mjcf(config: PhysicsConfig = PhysicsConfig()) -> str:
 class Humanoid:
     """A compiled humanoid model and the index maps between skeleton order and MuJoCo order."""
 
-    def __init__(self, config: PhysicsConfig = PhysicsConfig()):
+    def __init__(self, config: PhysicsConfig = PhysicsConfig(), arena=None):
         self.config = config
-        self.model = mujoco.MjModel.from_xml_string(build_mjcf(config))
+        self.arena = FlatFloor() if arena is None else arena
+        self.model = mujoco.MjModel.from_xml_string(build_mjcf(config, self.arena))
         m = self.model
         self.body_ids = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, link.name) for link in LINKS])
         joint_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, LINKS[i].name) for i in JOINT_LINKS]
@@ -152,7 +143,7 @@ class Humanoid:
         # MuJoCo numbers bodies depth-first, so the 15 links are bodies 1..15 (a contiguous
         # slice of xpos / xquat / cvel) in an order other than the skeleton's.
         assert sorted(self.body_ids) == list(range(1, len(LINKS) + 1))
-        self.floor_geom_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+        self.floor_geom_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, self.arena.geom_name)
         self.num_actuators = m.nu
 
     @property

@@ -1,4 +1,5 @@
-"""Forward kinematics of the humanoid in numpy and (batched, differentiable) torch.
+"""Forward kinematics of the humanoid in numpy (the torch mirror, for reconstruction, is
+`services/reconstruction/kinematics_torch.py`).
 
 A pose is the root position (..., 3), the root rotation (..., 4) and the local rotation of
 each of the 12 joints as a quaternion (..., 12, 4) in `skeleton.JOINT_NAMES` order (revolute
@@ -9,11 +10,9 @@ link frame sits at its joint, so these equal MuJoCo's `xpos` / `xquat` of the sa
 from __future__ import annotations
 
 import numpy as np
-import torch
 
 from actors import quaternion as qn
-from actors import quaternion_torch as qt
-from actors.skeleton import HINGE_AXIS, LINK_JOINT, NUM_LINKS, OFFSETS, PARENTS, REVOLUTE_JOINTS, SPHERICAL_JOINTS, revolute_angle  # noqa: F401 (re-export)
+from actors.skeleton import LINK_JOINT, NUM_LINKS, OFFSETS, PARENTS, revolute_angle  # noqa: F401 (re-export)
 
 
 def forward_kinematics(root_pos: np.ndarray, root_quat: np.ndarray, joint_quats: np.ndarray):
@@ -30,30 +29,3 @@ def forward_kinematics(root_pos: np.ndarray, root_quat: np.ndarray, joint_quats:
         joint = LINK_JOINT[link]
         rot[..., link, :] = parent_rot if joint < 0 else qn.quat_mul(parent_rot, joint_quats[..., joint, :])
     return pos, rot
-
-
-def forward_kinematics_torch(root_pos: torch.Tensor, root_quat: torch.Tensor, joint_quats: torch.Tensor):
-    """Torch version of `forward_kinematics`; gradients flow to all three inputs."""
-    offsets = torch.as_tensor(OFFSETS, dtype=root_pos.dtype, device=root_pos.device)
-    positions = [root_pos]
-    rotations = [root_quat]
-    for link in range(1, NUM_LINKS):
-        parent = int(PARENTS[link])
-        parent_rot = rotations[parent]
-        positions.append(positions[parent] + qt.quat_rotate(parent_rot, offsets[link].expand_as(root_pos)))
-        joint = int(LINK_JOINT[link])
-        rotations.append(parent_rot if joint < 0 else qt.quat_mul(parent_rot, joint_quats[..., joint, :]))
-    return torch.stack(positions, dim=-2), torch.stack(rotations, dim=-2)
-
-
-def joint_quats_from_params_torch(spherical_rotvecs: torch.Tensor, revolute_angles: torch.Tensor) -> torch.Tensor:
-    """Build the (..., 12, 4) joint quaternions from free parameters an optimiser can own.
-
-    spherical_rotvecs: (..., 8, 3) rotation vectors of the spherical joints (exp map),
-    revolute_angles: (..., 4) hinge angles, both in skeleton order.
-    """
-    batch = revolute_angles.shape[:-1]
-    quats = revolute_angles.new_zeros(batch + (len(SPHERICAL_JOINTS) + len(REVOLUTE_JOINTS), 4))
-    axis = torch.as_tensor(HINGE_AXIS, dtype=revolute_angles.dtype, device=revolute_angles.device)
-    quats = quats.index_copy(-2, torch.as_tensor(SPHERICAL_JOINTS), qt.quat_from_axis_angle(spherical_rotvecs))
-    return quats.index_copy(-2, torch.as_tensor(REVOLUTE_JOINTS), qt.quat_about_axis(revolute_angles, axis))

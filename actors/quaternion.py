@@ -1,6 +1,6 @@
 """Quaternion helpers in numpy, scalar-first (w, x, y, z) like MuJoCo.
 
-All functions broadcast over leading dimensions. `quaternion_torch.py` mirrors this
+All functions broadcast over leading dimensions. `services/reconstruction/quaternion_torch.py` mirrors this
 API for the differentiable forward kinematics used by motion reconstruction.
 """
 from __future__ import annotations

@@ -6,7 +6,7 @@ import numpy as np
 import torch
 
 from actors import quaternion as qn
-from actors.kinematics import forward_kinematics_torch, joint_quats_from_params_torch
+from services.reconstruction.kinematics_torch import forward_kinematics_torch, joint_quats_from_params_torch
 from services.reconstruction.batched_kinematics import link_frames, quat_to_matrix
 from services.reconstruction.body import REVOLUTE_LIMITS, SPHERICAL_LIMITS, PoseParams, body_points
 from services.reconstruction.camera import (

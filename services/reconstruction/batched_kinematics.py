@@ -1,6 +1,6 @@
 """Forward kinematics for long batches of frames inside an optimiser loop.
 
-Same result as `actors.kinematics.forward_kinematics_torch` (a test checks it), computed
+Same result as `services.reconstruction.kinematics_torch.forward_kinematics_torch` (a test checks it), computed
 with rotation matrices one tree level at a time: 5 batched steps instead of 14 chained
 quaternion products. The optimisation runs it hundreds of times over every frame of a
 clip, and torch's per-operation overhead, not arithmetic, is what costs there.

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import torch
 
-from actors import quaternion_torch as qt
+from services.reconstruction import quaternion_torch as qt
 
 
 def reprojection_l1(projected: torch.Tensor, observed: torch.Tensor, weight: torch.Tensor, px_to_unit: float) -> torch.Tensor:

@@ -1,4 +1,4 @@
-"""Differentiable torch mirror of `actors.quaternion` (w, x, y, z), for reconstruction."""
+"""Differentiable torch mirror of `actors.quaternion` (w, x, y, z), for motion reconstruction."""
 from __future__ import annotations
 
 import torch
