@@ -59,9 +59,10 @@ class Distribution(NamedTuple):
 
 
 class _RetriesExhausted(Exception):
-    def __init__(self, error: grpc.RpcError):
+    def __init__(self, error: grpc.RpcError, retries: int):
         super().__init__(error.details())
         self.error = error
+        self.retries = retries
 
 
 def _f64_bytes(values) -> bytes:
@@ -111,24 +112,31 @@ class ASIClient:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def _call(self, rpc, request):
-        """Unary call with retries on transient codes; raises _RetriesExhausted or grpc.RpcError."""
-        for attempt in range(self.max_retries + 1):
+    def _call(self, rpc, request, outage_s: float = 0.0, what: str = "call"):
+        """Unary call with retries on transient codes: `max_retries` of them, and beyond that
+        for as long as `outage_s` seconds from the first attempt (a caller that cannot go on
+        without the answer waits out a server restart). Raises _RetriesExhausted or grpc.RpcError."""
+        deadline = time.monotonic() + outage_s
+        attempt = 0
+        while True:
             try:
                 return rpc(request, timeout=self.timeout, metadata=self._metadata)
             except grpc.RpcError as exc:
                 if exc.code() not in RETRYABLE:
                     raise
-                if attempt == self.max_retries:
-                    raise _RetriesExhausted(exc) from None
+                delay = min(self.max_backoff, self.backoff * 2 ** min(attempt, 30))
+                if attempt >= self.max_retries:
+                    if time.monotonic() + delay > deadline:
+                        raise _RetriesExhausted(exc, attempt) from None
+                    log.warning("asi server %s unreachable; retrying %s in %.1f s", self.address, what, delay)
                 with self._counter_lock:
                     self.retries += 1
-                delay = min(self.max_backoff, self.backoff * 2 ** attempt)
+                attempt += 1
                 time.sleep(delay * random.uniform(0.5, 1.5))
 
     def _fail(self, what: str, exc: Exception) -> SfvError:
         if isinstance(exc, _RetriesExhausted):
-            return SfvError(f"asi server {self.address}: {what} failed after {self.max_retries} retries "
+            return SfvError(f"asi server {self.address}: {what} failed after {exc.retries} retries "
                             f"({exc.error.code().name}: {exc.error.details()})")
         return SfvError(f"asi server {self.address}: {what} job {self.job_id!r}: {exc.code().name}: {exc.details()}")
 
@@ -174,15 +182,16 @@ class ASIClient:
         self._last_version = reply.version
         return JobInfo(reply.version, reply.created, reply.state_dim, reply.num_components, reply.num_reference_frames)
 
-    def sample(self, mode: str, count: int, seed: int | None = None) -> InitialStates:
-        """`count` initial states drawn with mode 'asi', 'rsi' or 'fsi'."""
+    def sample(self, mode: str, count: int, seed: int | None = None, outage_s: float = 0.0) -> InitialStates:
+        """`count` initial states drawn with mode 'asi', 'rsi' or 'fsi'; an unreachable server
+        is retried for up to `outage_s` seconds beyond the usual retries."""
         if mode not in MODES:
             raise SfvError(f"asi sample: mode {mode!r} unknown; expected one of {sorted(MODES)}")
         request = asi_pb2.SampleRequest(job_id=self.job_id, mode=MODES[mode], count=count)
         if seed is not None:
             request.seed = seed
         try:
-            reply = self._call(self._stub.SampleInitialStates, request)
+            reply = self._call(self._stub.SampleInitialStates, request, outage_s, "sample")
         except (grpc.RpcError, _RetriesExhausted) as exc:
             raise self._fail("sample", exc) from None
         self._last_version = reply.version

@@ -50,7 +50,7 @@ DEEPMIMIC_JOINT_WEIGHTS = {"root": 1.0, "chest": 0.5, "neck": 0.3, "right_hip": 
 
 @dataclass(frozen=True)
 class RewardConfig:
-    form: str = field(default="deepmimic", metadata={"help": "deepmimic: weighted-mean joint errors, root term, centre-of-mass velocity (the code behind SFV's numbers); sfv_paper: the paper's plain sums and centre-of-mass position (weights/scales then as the paper's)"})
+    form: str = field(default="deepmimic", metadata={"choices": REWARD_FORMS, "help": "deepmimic: weighted-mean joint errors, root term, centre-of-mass velocity (the code behind SFV's numbers); sfv_paper: the paper's plain sums and centre-of-mass position (weights/scales then as the paper's)"})
     pose_weight: float = field(default=0.5, metadata={"help": "w_p, weight of the joint-rotation term (DeepMimic .5; paper .65)"})
     velocity_weight: float = field(default=0.05, metadata={"help": "w_v, weight of the joint angular-velocity term (DeepMimic .05; paper .1)"})
     end_effector_weight: float = field(default=0.15, metadata={"help": "w_e, weight of the hands-and-feet position term"})

@@ -8,21 +8,19 @@ a server, from the reference itself. Finished ASI episodes are reported back to 
 at the end of the call (one batched RPC).
 
 ASI outages: the client retries each call with backoff for a few seconds; a report that
-still fails is dropped and counted. Drawing starts cannot be skipped, so `_ServerStarts`
-keeps retrying for up to `WorkerSpec.asi_outage_s` (a server restart takes seconds) before
+still fails is dropped and counted. Drawing starts cannot be skipped, so the client keeps
+retrying a draw for up to `WorkerSpec.asi_outage_s` (a server restart takes seconds) before
 the SfvError reaches the driver, which then stops training with that message.
 """
 from __future__ import annotations
 
 import logging
 import os
-import random
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from learner.errors import SfvError
 from actors.imitation_env import EnvConfig
 from actors.initial_states import BufferedStarts, InitialStates, ReferenceStarts
 from actors.motion import ReferenceMotion
@@ -51,34 +49,19 @@ class WorkerSpec:
 
 
 class _ServerStarts:
-    """Starts drawn from the ASI server (any mode), waiting out an outage of up to `outage_s`."""
+    """Starts drawn from the ASI server (any mode). Drawing cannot be skipped, so the client
+    waits out an outage of up to `outage_s` (a server restart takes seconds) before the
+    SfvError reaches the driver."""
 
-    def __init__(self, client, mode: str, outage_s: float = 30.0, max_backoff_s: float = 4.0,
-                 rng: np.random.Generator | None = None):
-        self.client, self.mode = client, mode
+    def __init__(self, client, mode: str, outage_s: float = 30.0, rng: np.random.Generator | None = None):
+        self.client, self.mode, self.outage_s = client, mode, outage_s
         # Each draw carries a seed from the worker's own stream, so a serial run is reproducible
         # (the server draws from fresh entropy when no seed is sent).
         self.rng = rng
-        self.outage_s, self.max_backoff_s = outage_s, max_backoff_s
 
     def __call__(self, count: int) -> InitialStates:
-        deadline = time.monotonic() + self.outage_s
-        delay = 0.25
         seed = None if self.rng is None else int(self.rng.integers(2**63))
-        while True:
-            retries_before = self.client.retries
-            try:
-                reply = self.client.sample(self.mode, count, seed=seed)
-                break
-            except SfvError:
-                # Only transient failures (UNAVAILABLE, DEADLINE_EXCEEDED) make the client
-                # retry; a refused request (wrong token, unknown job) fails at once, no wait.
-                transient = self.client.retries > retries_before
-                if not transient or time.monotonic() + delay > deadline:
-                    raise
-                log.warning("asi server %s unreachable; retrying sample in %.1f s", self.client.address, delay)
-                time.sleep(delay * random.uniform(0.75, 1.25))
-                delay = min(self.max_backoff_s, 2 * delay)
+        reply = self.client.sample(self.mode, count, seed=seed, outage_s=self.outage_s)
         return InitialStates(reply.phases, np.asarray(reply.components, np.int64), reply.states.astype(np.float64))
 
 

@@ -73,7 +73,7 @@ class PPOConfig:
         default=10.0,
         metadata={"help": "weight of the squared penalty on policy means outside +-action_bound (0 disables)"},
     )
-    optimizer: str = field(default="adam", metadata={"help": "'adam' (default, faster) or 'sgd' (paper: SGD, momentum 0.9)"})
+    optimizer: str = field(default="adam", metadata={"choices": ("adam", "sgd"), "help": "'adam' (default, faster) or 'sgd' (paper: SGD, momentum 0.9)"})
     policy_lr: float = field(default=5e-5, metadata={"help": "policy learning rate (paper SGD: 2.5e-6)"})
     value_lr: float = field(default=1e-3, metadata={"help": "value learning rate (paper SGD: 0.01)"})
     sgd_momentum: float = field(default=0.9, metadata={"help": "momentum when optimizer='sgd' (paper: 0.9)"})

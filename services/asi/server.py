@@ -23,7 +23,9 @@ from grpc_health.v1 import health, health_pb2, health_pb2_grpc
 
 from learner.errors import SfvError
 from proto import asi_pb2, asi_pb2_grpc
-from services.asi.distribution import (BASELINES, InitialStateDistribution, UpdateConfig, evenly_spaced_phases,
+from actors.asi_client import BASELINES as BASELINE_ENUMS
+from actors.asi_client import MAX_MESSAGE_BYTES
+from services.asi.distribution import (InitialStateDistribution, UpdateConfig, evenly_spaced_phases,
                                        nearest_frames, reference_std)
 from services.asi.store import ASIStore, EpisodeBatch, InMemoryStore, JobSpec, StoreUnavailable, TooManyJobs
 
@@ -32,6 +34,7 @@ log = logging.getLogger(__name__)
 SERVICE_NAME = "sfv.asi.v1.InitialStateService"
 TOKEN_ENV = "SFV_ASI_TOKEN"
 JOB_ID_PATTERN = re.compile(r"[A-Za-z0-9._:-]{1,128}")
+BASELINE_NAMES = {enum: name for name, enum in BASELINE_ENUMS.items()}  # the wire's enum -> UpdateConfig.baseline
 
 
 @dataclass(frozen=True)
@@ -42,7 +45,7 @@ class ServerLimits:
     max_components: int = field(default=1024, metadata={"help": "largest num_components k"})
     max_frames: int = field(default=200_000, metadata={"help": "most reference frames F"})
     max_episodes_per_update: int = field(default=100_000, metadata={"help": "largest episodes_per_update"})
-    max_message_bytes: int = field(default=64 * 1024 * 1024, metadata={"help": "gRPC send/receive message limit"})
+    max_message_bytes: int = field(default=MAX_MESSAGE_BYTES, metadata={"help": "gRPC send/receive message limit (the client's)"})
     max_concurrent_rpcs: int = field(default=256, metadata={"help": "in-flight RPCs beyond this get RESOURCE_EXHAUSTED"})
 
 
@@ -205,9 +208,9 @@ class InitialStateServicer(asi_pb2_grpc.InitialStateServiceServicer):
         min_std = request.min_std if request.HasField("min_std") else defaults.min_std
         if not (np.isfinite(min_std) and min_std > 0):
             raise _invalid(f"min_std {min_std} must be finite and > 0")
-        if request.baseline not in (asi_pb2.COMPONENT_MEAN, asi_pb2.NONE):
+        baseline = BASELINE_NAMES.get(request.baseline)
+        if baseline is None:
             raise _invalid(f"baseline {request.baseline} unknown")
-        baseline = BASELINES[0] if request.baseline == asi_pb2.COMPONENT_MEAN else "none"
         return UpdateConfig(float(step_size), int(per_update), float(fraction), float(min_std), baseline)
 
     # --- SampleInitialStates -----------------------------------------------------------------
@@ -267,7 +270,7 @@ class InitialStateServicer(asi_pb2_grpc.InitialStateServiceServicer):
             phases=spec.phases, version=params.version, pending_episodes=params.pending_episodes,
             state_dim=spec.state_dim, num_components=spec.num_components, step_size=config.step_size,
             episodes_per_update=config.episodes_per_update, max_step_fraction=config.max_step_fraction,
-            min_std=config.min_std, baseline=asi_pb2.COMPONENT_MEAN if config.baseline == BASELINES[0] else asi_pb2.NONE)
+            min_std=config.min_std, baseline=BASELINE_ENUMS[config.baseline])
         if params.policy_version is not None:
             reply.policy_version = params.policy_version
         return reply

@@ -53,13 +53,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from learner.errors import SfvError
+from services.training.config import INIT_MODES
 
 FORMAT = "sfv-learning-1"
 RESULTS_FILE = "learning.json"
 PLOT_FILE = "learning.png"
 RUNS_DIR = "runs"
 DEFAULT_SKILLS = ("deepmimic:walk", "deepmimic:run", "deepmimic:backflip", "deepmimic:cartwheel")
-INITS = ("asi", "rsi", "fsi")  # services.training.config.INIT_MODES
+INITS = INIT_MODES  # every initial-state strategy
 THRESHOLD = 0.8
 DEFAULT_SAMPLES = 2_000_000
 EVAL_POINTS = 10  # default --eval-every: the budget / this

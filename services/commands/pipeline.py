@@ -9,6 +9,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from services.training.config import INIT_MODES, TrainConfig
+
+TRAIN_DEFAULTS = TrainConfig()  # the pipeline's training flags take `sfv train`'s defaults
+
 
 def register(sub) -> None:
     p = sub.add_parser("pipeline", help="reconstruct a motion from a video, then train a controller for it")
@@ -16,13 +20,13 @@ def register(sub) -> None:
     p.add_argument("--out", type=Path, required=True, help="output directory: track.npz, motion.npz, train/")
     p.add_argument("--pose-models", default=None, help="BlazePose model directory (default: `sfv models fetch` cache)")
     p.add_argument("--iterations", type=int, default=None, help="reconstruction optimiser steps")
-    p.add_argument("--workers", type=int, default=2, help="rollout workers")
-    p.add_argument("--envs-per-worker", type=int, default=32, help="envs per worker")
-    p.add_argument("--init", choices=("asi", "rsi", "fsi"), default="asi", help="initial state distribution")
-    p.add_argument("--samples", type=int, default=200_000, help="training samples")
-    p.add_argument("--batch-size", type=int, default=None, help="samples per PPO iteration (default 4096)")
+    p.add_argument("--workers", type=int, default=TRAIN_DEFAULTS.workers, help="rollout workers")
+    p.add_argument("--envs-per-worker", type=int, default=TRAIN_DEFAULTS.envs_per_worker, help="envs per worker")
+    p.add_argument("--init", choices=INIT_MODES, default=TRAIN_DEFAULTS.init, help="initial state distribution")
+    p.add_argument("--samples", type=int, default=TRAIN_DEFAULTS.samples, help="training samples")
+    p.add_argument("--batch-size", type=int, default=None, help=f"samples per PPO iteration (default {TRAIN_DEFAULTS.ppo.batch_size})")
     p.add_argument("--ray-address", default=None, help="join a Ray cluster; local Ray when absent")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=TRAIN_DEFAULTS.seed, help="base seed of training")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(handler=run)
 

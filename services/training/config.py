@@ -20,7 +20,7 @@ class TrainConfig:
     out: str = field(default="runs/walk", metadata={"help": "run directory: config, metrics.jsonl, TensorBoard events, checkpoints"})
     workers: int = field(default=2, metadata={"help": "rollout workers (Ray actors, one process each)"})
     envs_per_worker: int = field(default=32, metadata={"help": "envs per worker, stepped together with one batched policy forward (32 amortises the 1024-512 policy: worker at ~0.9 of raw physics vs ~0.8 at 16)"})
-    init: str = field(default="asi", metadata={"help": "initial states: asi (learned), rsi (random reference frame) or fsi (first frame)"})
+    init: str = field(default="asi", metadata={"choices": INIT_MODES, "help": "initial states: asi (learned), rsi (random reference frame) or fsi (first frame)"})
     samples: int = field(default=200_000, metadata={"help": "stop after this many environment steps in total"})
     seed: int = field(default=0, metadata={"help": "base seed; worker i uses seed + i"})
     ray_address: str | None = field(default=None, metadata={"help": "Ray cluster to join ('auto' or host:port); local single-node Ray when absent"})
@@ -36,7 +36,7 @@ class TrainConfig:
     job_id: str | None = field(default=None, metadata={"help": "ASI job id; derived from the run directory when absent"})
     checkpoint_every: int = field(default=10, metadata={"help": "iterations between checkpoints (and at the end)"})
     keep_checkpoints: int = field(default=3, metadata={"help": "newest checkpoints kept on disk"})
-    runner: str = field(default="ray", metadata={"help": "how rollout workers run: ray (Ray actors, restarted when they die), in_process (this process, no Ray: debugging, CI) or processes (spawned processes over pipes: hosts without Ray)"})
+    runner: str = field(default="ray", metadata={"choices": RUNNER_NAMES, "help": "how rollout workers run: ray (Ray actors, restarted when they die), in_process (this process, no Ray: debugging, CI) or processes (spawned processes over pipes: hosts without Ray)"})
     serial: bool = field(default=False, metadata={"help": "shorthand for --runner in_process"})
     device: str = field(default="cpu", metadata={"help": "torch device of the learner"})
     torch_threads: int = field(default=0, metadata={"help": "learner's torch CPU threads; 0 = every core of this node: workers wait while the learner updates (2 workers on 2 cores: 0.60-0.64 of the raw bound end to end with 2 threads, 0.52 with 1, measured)"})
@@ -82,6 +82,27 @@ class TrainConfig:
             raise SfvError(f"--eval-every must be >= 0 and --eval-episodes positive, got {self.eval_every}, {self.eval_episodes}")
         if self.asi_outage_s < 0:
             raise SfvError(f"--asi-outage-s must be >= 0, got {self.asi_outage_s}")
+        self._validate_env()
+
+    def _validate_env(self) -> None:
+        from learner.errors import SfvError
+
+        env, physics = self.env, self.env.physics
+        if not env.control_hz > 0:
+            raise SfvError(f"--env.control-hz must be positive, got {env.control_hz}")
+        substeps = physics.physics_hz / env.control_hz
+        if not physics.physics_hz > 0 or substeps < 1 or abs(substeps - round(substeps)) > 1e-9:
+            raise SfvError(f"--physics-hz must be a positive whole multiple of the {env.control_hz:g} Hz control rate "
+                           f"(--env.control-hz), got {physics.physics_hz:g}")
+        if not env.horizon_s > 0:
+            raise SfvError(f"--env.horizon-s must be positive, got {env.horizon_s}")
+        for name in ("friction", "armature", "joint_damping"):
+            if getattr(physics, name) < 0:
+                raise SfvError(f"--env.physics.{name.replace('_', '-')} must be >= 0, got {getattr(physics, name)}")
+        if env.residual_action_scale is not None and not env.residual_action_scale > 0:
+            raise SfvError(f"--residual-scale must be >= 0 (0: absolute targets), got {env.residual_action_scale}")
+        if env.action_parameterisation != "exp_map" and env.residual_action_scale is not None:
+            raise SfvError("--action axis_angle needs --residual-scale 0: residual targets are exp-map offsets")
 
     @property
     def steps_per_worker(self) -> int:

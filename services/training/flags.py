@@ -1,0 +1,376 @@
+"""`sfv train`'s settings from one place: the config dataclasses' fields.
+
+Every leaf field of `TrainConfig` (its own fields, `env`, `env.physics`, `env.reward`, `ppo`)
+becomes a flag named by its path (`--samples`, `--env.horizon-s`, `--env.physics.physics-hz`,
+`--ppo.update-epochs`) whose type, choices and help text come from the field, so a default is
+declared once, in the dataclass. The short flags users know (`--epochs`, `--physics-hz`,
+`--hidden`, `--reward`, ...) are aliases of those paths (`ALIASES`). A YAML file
+(`--config FILE.yaml`, the nested layout `--print-config` writes) sets any field too.
+
+Precedence: the dataclass defaults, then the config file, then the flags given. With
+`--resume`, the run's saved config replaces the defaults; settings given explicitly win where
+changing them mid-run is safe (`SAFE_ON_RESUME`: budget, learning rates, epochs, workers,
+addresses, ...) and are refused with a one-line error where it is not (network sizes, physics,
+reward, action and observation spaces), instead of being dropped silently.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import types
+import typing
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from learner.errors import SfvError
+
+_MISSING = object()
+
+
+@dataclass(frozen=True)
+class Alias:
+    """A short flag for one or more config paths (all set to the same value)."""
+
+    flag: str
+    paths: tuple[str, ...]
+    type: Callable[[str], Any] | None = None  # parses and range-checks at parse time (argparse names the flag)
+    help: str | None = None  # the (first) field's help when None
+    const: Any = _MISSING  # a switch (store_const) setting the paths to this value
+    metavar: str | None = None
+
+
+def _positive(kind):
+    """argparse type: a number of `kind` greater than zero."""
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            value = None
+        if value is None or not value > 0:
+            raise argparse.ArgumentTypeError(f"expected a positive {kind.__name__}, got {text!r}")
+        return value
+
+    parse.__name__ = kind.__name__
+    return parse
+
+
+def _int_list(positive_only: bool, allow_none: bool):
+    def parse(text: str) -> tuple[int, ...]:
+        if allow_none and text.strip().lower() == "none":
+            return ()
+        try:
+            values = tuple(int(part) for part in text.split(","))
+        except ValueError:
+            values = ()
+        if not values or min(values) < 1:
+            tail = ", or 'none'" if allow_none else ""
+            raise argparse.ArgumentTypeError(f"expected positive integers separated by commas{tail}, got {text!r}")
+        return values
+
+    return parse
+
+
+def _link_names(text: str) -> tuple[str, ...]:
+    from actors.skeleton import LINK_NAMES
+
+    if text.strip().lower() == "none":
+        return ()
+    names = tuple(part.strip() for part in text.split(",") if part.strip())
+    unknown = [n for n in names if n not in LINK_NAMES]
+    if not names or unknown:
+        raise argparse.ArgumentTypeError(f"expected link names separated by commas (of {', '.join(LINK_NAMES)}), got {text!r}")
+    return names
+
+
+def _residual_scale(text: str) -> float | None:
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"expected a scale >= 0 (0: absolute targets), got {text!r}")
+    return value or None
+
+
+ALIASES = (
+    Alias("--epochs", ("ppo.update_epochs",), _positive(int)),
+    Alias("--policy-lr", ("ppo.policy_lr",), _positive(float)),
+    Alias("--batch-size", ("ppo.batch_size",), _positive(int)),
+    Alias("--hidden", ("ppo.policy_hidden", "ppo.value_hidden"), _int_list(True, False),
+          "hidden layer sizes of the policy and value MLPs (paper: 1024,512)", metavar="N,N"),
+    Alias("--torch-threads", ("torch_threads",), _positive(int),
+          "learner's torch threads (default: every core; workers wait while the learner updates)"),
+    Alias("--physics-hz", ("env.physics.physics_hz",)),
+    Alias("--no-early-termination", ("env.early_termination",), const=False,
+          help="keep episodes going after a fall (rolls, getups)"),
+    Alias("--ground-contact", ("env.ground_contact_links",), _link_names, metavar="LINK,LINK",
+          help="links besides the feet allowed on the ground without a fall (default: the clip's DeepMimic setting; 'none': feet only)"),
+    Alias("--action", ("env.action_parameterisation",)),
+    Alias("--residual-scale", ("env.residual_action_scale",), _residual_scale,
+          "residual PD targets: reference + this (rad) x action (default 0.5); 0 = absolute targets"),
+    Alias("--reference-obs", ("env.reference_obs_steps",), _int_list(True, True), metavar="K,K",
+          help="control steps ahead at which the policy observes the reference root (default 1,15); 'none' for SFV's observation"),
+    Alias("--state-space", ("env.state_space",)),
+    Alias("--asi-std-scale", ("asi_initial_std_scale",), _positive(float)),
+    Alias("--curriculum-samples", ("curriculum_samples",), _positive(int)),
+    Alias("--no-root-sync", ("env.sync_root_per_cycle",), const=False,
+          help="do not re-synchronise the reference root to the character each cycle"),
+)
+REWARD_PRESETS = ("deepmimic", "sfv_paper")
+
+# Changing these between a checkpoint and its continuation leaves the learner, its ASI
+# distribution and the env consistent; anything else is refused on --resume.
+SAFE_ON_RESUME = frozenset({
+    "samples", "workers", "envs_per_worker", "runner", "serial", "device", "torch_threads", "ray_address",
+    "asi_address", "asi_host", "redis_url", "asi_tls_ca", "asi_outage_s", "worker_timeout_s", "checkpoint_every",
+    "keep_checkpoints", "plot_every", "plot_min_interval_s", "eval_every", "eval_episodes", "curriculum_start_s",
+    "curriculum_samples", "asi_episodes_per_update", "asi_step_size",
+    "ppo.policy_lr", "ppo.value_lr", "ppo.update_epochs", "ppo.target_kl", "ppo.batch_size", "ppo.minibatch_size",
+    "ppo.max_grad_norm", "ppo.clip_coef", "ppo.sgd_momentum",
+})
+SKIPPED = frozenset({"out"})  # its own flag: required unless --print-config or a config file gives it
+
+
+# --------------------------------------------------------------------------- the fields
+@dataclass(frozen=True)
+class Leaf:
+    path: str  # "env.physics.physics_hz"
+    type: Any  # the resolved annotation
+    default: Any
+    help: str
+    choices: tuple | None
+
+    @property
+    def flag(self) -> str:
+        return "--" + self.path.replace("_", "-")
+
+
+def leaves(cls=None, prefix: str = "") -> list[Leaf]:
+    """Every leaf field of the config tree, depth first, in declaration order."""
+    from services.training.config import TrainConfig
+
+    cls = cls or TrainConfig
+    hints = typing.get_type_hints(cls)
+    out = []
+    for f in dataclasses.fields(cls):
+        path, kind = prefix + f.name, hints[f.name]
+        if dataclasses.is_dataclass(kind):
+            out.extend(leaves(kind, path + "."))
+            continue
+        default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+        out.append(Leaf(path, kind, default, f.metadata.get("help", ""), f.metadata.get("choices")))
+    return out
+
+
+def _optional(kind) -> tuple[Any, bool]:
+    """(the type without None, whether None is allowed)."""
+    if isinstance(kind, types.UnionType) or typing.get_origin(kind) is typing.Union:
+        args = [a for a in typing.get_args(kind) if a is not type(None)]
+        return args[0], len(args) < len(typing.get_args(kind))
+    return kind, False
+
+
+def _parser_for(leaf: Leaf) -> Callable[[str], Any]:
+    base, nullable = _optional(leaf.type)
+    if typing.get_origin(base) is tuple:
+        item = typing.get_args(base)[0]
+
+        def parse_tuple(text: str):
+            if text.strip().lower() == "none":
+                return ()
+            try:
+                return tuple(item(part.strip()) for part in text.split(",") if part.strip())
+            except ValueError:
+                raise argparse.ArgumentTypeError(f"expected {item.__name__}s separated by commas, got {text!r}") from None
+
+        return parse_tuple
+
+    def parse(text: str):
+        if nullable and text.strip().lower() == "none":
+            return None
+        try:
+            return base(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {'a' if base is not int else 'an'} {base.__name__}, got {text!r}") from None
+
+    parse.__name__ = getattr(base, "__name__", "value")
+    return parse
+
+
+def _default_text(value) -> str:
+    if isinstance(value, tuple):
+        return ",".join(str(v) for v in value) or "none"
+    return "none" if value is None else str(value)
+
+
+# ------------------------------------------------------------------------- the parser
+def add_config_flags(parser: argparse.ArgumentParser) -> None:
+    """Every config field as a flag (default SUPPRESS: only what the user gave appears in args)."""
+    by_path = {leaf.path: leaf for leaf in leaves()}
+    aliased = {a.paths[0]: a for a in ALIASES if len(a.paths) == 1 and a.const is _MISSING}
+    group = parser.add_argument_group("settings (each a config field; `--print-config` shows them all)")
+    for leaf in by_path.values():
+        if leaf.path in SKIPPED:
+            continue
+        alias = aliased.get(leaf.path)
+        names = list(dict.fromkeys(([alias.flag] if alias else []) + [leaf.flag]))
+        help_text = f"{(alias.help if alias and alias.help else leaf.help)} [default: {_default_text(leaf.default)}]".replace("%", "%%")
+        base, _ = _optional(leaf.type)
+        if base is bool:
+            group.add_argument(*names, dest=leaf.path, action=argparse.BooleanOptionalAction, default=argparse.SUPPRESS, help=help_text)
+            continue
+        group.add_argument(*names, dest=leaf.path, type=(alias.type if alias and alias.type else _parser_for(leaf)),
+                           choices=leaf.choices, default=argparse.SUPPRESS, help=help_text,
+                           metavar=(alias.metavar if alias and alias.metavar else None if leaf.choices
+                                    else leaf.path.rsplit(".", 1)[-1].upper()))
+    for alias in ALIASES:
+        if alias.paths[0] in aliased and aliased[alias.paths[0]] is alias:
+            continue
+        dest = "alias:" + alias.flag
+        help_text = alias.help or by_path[alias.paths[0]].help
+        if alias.const is not _MISSING:
+            group.add_argument(alias.flag, dest=dest, action="store_const", const=alias.const, default=argparse.SUPPRESS, help=help_text)
+        else:
+            group.add_argument(alias.flag, dest=dest, type=alias.type, default=argparse.SUPPRESS, help=help_text, metavar=alias.metavar)
+    group.add_argument("--reward", dest="preset:reward", choices=REWARD_PRESETS, default=argparse.SUPPRESS,
+                       help="reward preset (default deepmimic: weighted-mean joint errors, root term, centre-of-mass velocity; "
+                            "sfv_paper: the paper's sums and weights); --env.reward.* fields adjust either")
+
+
+def given_settings(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, str]]:
+    """({config path: value} the user gave on the command line, {config path: the flag used})."""
+    values, flags = {}, {}
+    by_flag = {a.flag: a for a in ALIASES}
+    paths = {leaf.path for leaf in leaves()}
+    for dest, value in vars(args).items():
+        if dest.startswith("alias:"):
+            alias = by_flag[dest[len("alias:"):]]
+            for path in alias.paths:
+                values[path], flags[path] = value, alias.flag
+        elif dest in paths:
+            if dest in SKIPPED:
+                continue
+            values[dest] = value
+            alias = next((a for a in ALIASES if a.paths == (dest,) and a.const is _MISSING), None)
+            flags[dest] = alias.flag if alias else "--" + dest.replace("_", "-")
+    return values, flags
+
+
+# ------------------------------------------------------------------------ config files
+def read_config_file(path: str | Path) -> dict[str, Any]:
+    """{config path: value} from a YAML (or JSON) file in `--print-config`'s nested layout."""
+    import yaml
+
+    path = Path(path)
+    try:
+        document = yaml.safe_load(path.read_text())
+    except OSError as exc:
+        raise SfvError(f"{path}: cannot read config file ({exc.strerror or exc})") from None
+    except yaml.YAMLError as exc:
+        raise SfvError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    if not isinstance(document, dict):
+        raise SfvError(f"{path}: a config file holds a mapping of settings, got {type(document).__name__}")
+    by_path = {leaf.path: leaf for leaf in leaves()}
+    flat: dict[str, Any] = {}
+
+    def walk(node: dict, prefix: str) -> None:
+        for key, value in node.items():
+            name = prefix + str(key)
+            if isinstance(value, dict) and name not in by_path:
+                walk(value, name + ".")
+            elif name not in by_path:
+                raise SfvError(f"{path}: unknown setting {name!r}")
+            else:
+                flat[name] = _checked(path, by_path[name], value)
+
+    walk(document, "")
+    return flat
+
+
+def _checked(source: Path, leaf: Leaf, value):
+    base, nullable = _optional(leaf.type)
+    if value is None and (nullable or typing.get_origin(base) is tuple):
+        return value
+    ok = {bool: lambda v: isinstance(v, bool), int: lambda v: isinstance(v, int) and not isinstance(v, bool),
+          float: lambda v: isinstance(v, (int, float)) and not isinstance(v, bool), str: lambda v: isinstance(v, str)}
+    if typing.get_origin(base) is tuple:
+        item = typing.get_args(base)[0]
+        if isinstance(value, (list, tuple)) and all(ok[item](v) for v in value):
+            return tuple(value)
+    elif ok[base](value):
+        if leaf.choices and value not in leaf.choices:
+            raise SfvError(f"{source}: {leaf.path} must be one of {', '.join(map(str, leaf.choices))}, got {value!r}")
+        return float(value) if base is float else value
+    raise SfvError(f"{source}: {leaf.path} must be {_type_name(leaf.type)}, got {value!r}")
+
+
+def _type_name(kind) -> str:
+    base, nullable = _optional(kind)
+    name = f"a list of {typing.get_args(base)[0].__name__}" if typing.get_origin(base) is tuple else base.__name__
+    return name + (" or null" if nullable else "")
+
+
+# ------------------------------------------------------------------------- resolution
+def resolve(given: dict[str, Any], flags: dict[str, str], base: dict | None = None, reward_preset: str | None = None,
+            resuming: bool = False):
+    """The TrainConfig: `base` (a saved run config's dict; the defaults when None) with the
+    given settings applied. On resume, an unsafe setting that differs from the run's is an
+    SfvError naming its flag."""
+    from actors.reward import RewardConfig
+    from services.training.config import TrainConfig
+
+    config_dict = json.loads(json.dumps((TrainConfig() if base is None else TrainConfig.from_dict(base)).to_dict()))
+    if reward_preset is not None:
+        preset = RewardConfig() if reward_preset == "deepmimic" else RewardConfig.sfv_paper()
+        given = {**{f"env.reward.{k}": v for k, v in dataclasses.asdict(preset).items()}, **given}
+        flags = {**{f"env.reward.{k}": "--reward" for k in dataclasses.asdict(preset)}, **flags}
+    if resuming:
+        _refuse_unsafe_changes(given, flags, config_dict)
+    for path, value in given.items():
+        _set(config_dict, path, list(value) if isinstance(value, tuple) else value)
+    if "ppo.batch_size" in given and "ppo.minibatch_size" not in given:  # a smaller batch than one minibatch
+        config_dict["ppo"]["minibatch_size"] = min(config_dict["ppo"]["minibatch_size"], config_dict["ppo"]["batch_size"])
+    try:
+        return TrainConfig.from_dict(config_dict)
+    except (ValueError, TypeError) as exc:
+        raise SfvError(f"sfv train: {exc}") from None
+
+
+def _refuse_unsafe_changes(given: dict, flags: dict, saved: dict) -> None:
+    for path, value in given.items():
+        if path in SAFE_ON_RESUME:
+            continue
+        old = _get(saved, path)
+        new = list(value) if isinstance(value, tuple) else value
+        if new != old:
+            raise SfvError(f"{flags.get(path, path)}: cannot change on --resume (the run has {_default_text(_tuple(old))}, "
+                           f"asked {_default_text(value)}); start a new run with another --out")
+
+
+def _tuple(value):
+    return tuple(value) if isinstance(value, list) else value
+
+
+def _get(tree: dict, path: str):
+    node = tree
+    for key in path.split("."):
+        node = node[key]
+    return node
+
+
+def _set(tree: dict, path: str, value) -> None:
+    *parents, key = path.split(".")
+    node = tree
+    for name in parents:
+        node = node[name]
+    node[key] = value
+
+
+def config_yaml(config) -> str:
+    """The resolved config as YAML, in the layout `--config` reads."""
+    import yaml
+
+    return yaml.safe_dump(json.loads(json.dumps(config.to_dict())), sort_keys=False, width=120)
