@@ -10,18 +10,19 @@ import numpy as np
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
 
-def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack(
-        (
-            aw * bw - ax * bx - ay * by - az * bz,
+def hamilton_product(a, b):
+    """The four components (w, x, y, z) of a * b from the components of a and b: the one
+    formula behind the numpy `quat_mul` here and the torch one of reconstruction."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (aw * bw - ax * bx - ay * by - az * bz,
             aw * bx + ax * bw + ay * bz - az * by,
             aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-        ),
-        axis=-1,
-    )
+            aw * bz + ax * by - ay * bx + az * bw)
+
+
+def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.stack(hamilton_product(np.moveaxis(a, -1, 0), np.moveaxis(b, -1, 0)), axis=-1)
 
 
 def quat_conj(q: np.ndarray) -> np.ndarray:

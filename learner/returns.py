@@ -35,15 +35,8 @@ def _episode_masks(terminated: np.ndarray, truncated: np.ndarray) -> tuple[np.nd
     return alive, continues
 
 
-def gae_advantages(
-    rewards: np.ndarray,
-    values: np.ndarray,
-    next_values: np.ndarray,
-    terminated: np.ndarray,
-    truncated: np.ndarray,
-    gamma: float,
-    lam: float,
-) -> np.ndarray:
+def gae_advantages(rewards: np.ndarray, values: np.ndarray, next_values: np.ndarray, terminated: np.ndarray,
+                   truncated: np.ndarray, gamma: float, lam: float) -> np.ndarray:
     """A_t = delta_t + gamma * lam * A_{t+1} (within an episode), delta_t the TD error."""
     steps, _ = _check_shapes(
         rewards=rewards, values=values, next_values=next_values, terminated=terminated, truncated=truncated
@@ -58,14 +51,8 @@ def gae_advantages(
     return advantages
 
 
-def td_lambda_returns(
-    rewards: np.ndarray,
-    next_values: np.ndarray,
-    terminated: np.ndarray,
-    truncated: np.ndarray,
-    gamma: float,
-    lam: float,
-) -> np.ndarray:
+def td_lambda_returns(rewards: np.ndarray, next_values: np.ndarray, terminated: np.ndarray, truncated: np.ndarray,
+                      gamma: float, lam: float) -> np.ndarray:
     """The lambda-return, recursively: G_t = r_t + gamma * ((1 - lam) V(s_{t+1}) + lam G_{t+1}).
 
     G_{t+1} is replaced by V(s_{t+1}) where the episode was truncated (or the block ends),

@@ -5,10 +5,10 @@ import pytest
 import torch
 
 from learner.errors import SfvError
-from learner.policy import NumpyPolicy
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
 from learner.config import PPOConfig
 from learner.ppo import PPOLearner
+from tests.learner_helpers import behaviour_rollout
 
 OBS_DIM, ACT_DIM = 6, 3
 
@@ -19,17 +19,11 @@ def config(seed=0):
 
 def rollout(learner, seed, steps=8, envs=32):
     rng = np.random.default_rng(seed)
-    policy = NumpyPolicy(learner.policy_weights(), max_batch=envs)
-    obs = rng.normal(size=(steps, envs, OBS_DIM)).astype(np.float32)
-    actions = np.empty((steps, envs, ACT_DIM), np.float32)
-    logp = np.empty((steps, envs), np.float32)
-    for t in range(steps):
-        policy.act(obs[t], rng, out_actions=actions[t], out_logp=logp[t])
+    batch = behaviour_rollout(learner, rng, steps, envs, OBS_DIM)
+    obs, actions = batch["obs"], batch["actions"]
     return {
-        "obs": obs,
+        **batch,
         "next_obs": np.roll(obs, -1, axis=0),
-        "actions": actions,
-        "logp": logp,
         "rewards": (1.0 - np.square(actions).mean(-1)).astype(np.float32),
         "terminated": rng.random((steps, envs)) < 0.05,
         "truncated": rng.random((steps, envs)) < 0.05,

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 import torch
 
-from learner.policy import NumpyPolicy
 from learner.config import PPOConfig
 from learner.errors import ConfigError
 from learner.ppo import PPOLearner
+from tests.learner_helpers import behaviour_rollout
 
 GAMMA = 0.9  # bound 1 / (1 - 0.9) = 10 with reward_max 1
 STEPS, ENVS, OBS, ACT = 4, 32, 3, 2
@@ -27,13 +27,8 @@ def config(**overrides):
 
 def batch_with_rewards(learner, rewards):
     rng = np.random.default_rng(1)
-    policy = NumpyPolicy(learner.policy_weights(), max_batch=ENVS)
-    obs = rng.normal(size=(STEPS, ENVS, OBS)).astype(np.float32)
-    actions = np.empty((STEPS, ENVS, ACT), np.float32)
-    logp = np.empty((STEPS, ENVS), np.float32)
-    for t in range(STEPS):
-        policy.act(obs[t], rng, out_actions=actions[t], out_logp=logp[t])
-    return {"obs": obs, "next_obs": rng.normal(size=obs.shape).astype(np.float32), "actions": actions, "logp": logp,
+    batch = behaviour_rollout(learner, rng, STEPS, ENVS, OBS)
+    return {**batch, "next_obs": rng.normal(size=batch["obs"].shape).astype(np.float32),
             "rewards": rewards.astype(np.float32), "terminated": np.ones((STEPS, ENVS), bool),
             "truncated": np.zeros((STEPS, ENVS), bool)}
 

@@ -3,19 +3,11 @@ from __future__ import annotations
 
 import torch
 
+from actors.quaternion import hamilton_product
+
 
 def quat_mul(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
-    aw, ax, ay, az = a.unbind(-1)
-    bw, bx, by, bz = b.unbind(-1)
-    return torch.stack(
-        (
-            aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-        ),
-        dim=-1,
-    )
+    return torch.stack(hamilton_product(a.unbind(-1), b.unbind(-1)), dim=-1)
 
 
 def quat_conj(q: torch.Tensor) -> torch.Tensor:
