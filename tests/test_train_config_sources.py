@@ -137,3 +137,12 @@ def test_resume_refuses_unsafe_changes_naming_the_flag(tmp_path, capsys, flags, 
 def test_out_is_required_to_train():
     with pytest.raises(SfvError, match="--out is required"):
         train.build_config(parse())
+
+
+def test_runner_flags_agree_with_the_older_serial_switch(tmp_path):
+    assert train.build_config(parse("--out", str(tmp_path), "--serial")).runner == "in_process"
+    processes = train.build_config(parse("--out", str(tmp_path), "--runner", "processes"))
+    assert (processes.runner, processes.serial) == ("processes", False)
+    run = _saved_run(tmp_path, "--serial")
+    resumed = train.build_config(parse("--out", str(run), "--resume", "--runner", "ray"))
+    assert (resumed.runner, resumed.serial) == ("ray", False)

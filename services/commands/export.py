@@ -6,7 +6,7 @@
     sfv export RUN --motion rollout.npz --bvh rollout.bvh [--episodes 1] [--seconds T]
         roll the policy out and record the simulated character's root and joint rotations at
         every control step, as an sfv motion (.npz) and/or BVH (Y up, centimetres by default,
-        ZXY Euler channels; see services/export/bvh.py). With --episodes E > 1 each episode
+        ZXY Euler channels; see actors/bvh.py). With --episodes E > 1 each episode
         goes to its own file: NAME_ep01.npz, NAME_ep02.npz, ...
 
 Prints one JSON object naming the files written.

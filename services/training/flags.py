@@ -331,6 +331,8 @@ def resolve(given: dict[str, Any], flags: dict[str, str], base: dict | None = No
         _refuse_unsafe_changes(given, flags, config_dict)
     for path, value in given.items():
         _set(config_dict, path, list(value) if isinstance(value, tuple) else value)
+    if "runner" in given and "serial" not in given:  # the runner named wins over a saved `serial`
+        config_dict["serial"] = config_dict["runner"] == "in_process"
     if "ppo.batch_size" in given and "ppo.minibatch_size" not in given:  # a smaller batch than one minibatch
         config_dict["ppo"]["minibatch_size"] = min(config_dict["ppo"]["minibatch_size"], config_dict["ppo"]["batch_size"])
     try:
