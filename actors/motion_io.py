@@ -200,6 +200,11 @@ def _load_npz(path: Path) -> ReferenceMotion:
     )
 
 
+def check_motion(path, motion: ReferenceMotion) -> None:
+    """The checks every loaded motion passes (for loaders outside this module)."""
+    _check_derived(path, motion)
+
+
 def _check_derived(path, motion: ReferenceMotion) -> None:
     """Finite inputs can still give non-finite positions or velocities (1e308 apart, 1e-320 s)."""
     derived = {

@@ -251,10 +251,23 @@ def is_loop(root_pos: np.ndarray, root_rot: np.ndarray, joint_rot: np.ndarray) -
 
 
 # --------------------------------------------------------------------- together
-def retarget(bvh: Bvh, rig: RigMap, options: RetargetOptions = RetargetOptions(), path="BVH", name: str = "bvh"):
-    """(ReferenceMotion, report dict) of a BVH clip retargeted onto the humanoid."""
-    if len(bvh.frames) < 2:
-        raise SfvError(f"{path}: a motion needs at least 2 frames, found {len(bvh.frames)}")
+@dataclass(frozen=True)
+class SourceFrame:
+    """How the source file sits against the humanoid (steps 3 and 4)."""
+
+    index: dict  # target -> source joint index
+    basis: np.ndarray  # C: file axes -> humanoid axes
+    scale: float  # leg-length ratio, file units -> humanoid metres
+    units: str
+    height: float  # rest height in file units
+    rest: dict  # target -> rest position, humanoid axes, file units
+
+    def to_humanoid(self, positions: np.ndarray) -> np.ndarray:
+        """File positions (..., 3) in humanoid axes and metres (not yet placed on the floor)."""
+        return self.scale * positions @ self.basis.T
+
+
+def source_frame(bvh: Bvh, rig: RigMap, options: RetargetOptions = RetargetOptions(), path="BVH") -> SourceFrame:
     index = {target: bvh.joint_index(source) for target, source in rig.joints.items()}
     rest_file = rest_positions(bvh)
     rest = {t: rest_file[i] for t, i in index.items()}
@@ -265,15 +278,24 @@ def retarget(bvh: Bvh, rig: RigMap, options: RetargetOptions = RetargetOptions()
                 rest[tip] = end
     basis = file_basis(rest, options, path)
     source_rest = {t: basis @ p for t, p in rest.items()}
-    height = float(source_rest[next(k for k in ("head", "neck", "chest", "root") if k in source_rest)][2]
-                   - min(source_rest[k][2] for k in ("right_ankle", "left_ankle", "right_toe", "left_toe") if k in source_rest))
+    top = source_rest[next(k for k in ("head", "neck", "chest", "root") if k in source_rest)][2]
+    height = float(top - min(source_rest[k][2] for k in ("right_ankle", "left_ankle", "right_toe", "left_toe") if k in source_rest))
     if options.units is not None and options.units not in UNIT_METRES:
         raise SfvError(f"--units {options.units}: expected one of {', '.join(UNIT_METRES)}")
-    units = options.units or detect_units(height)
     source_leg = _leg_length(source_rest)
     if source_leg <= 1e-9:
         raise SfvError(f"{path}: the rest pose's legs have no length; cannot size the clip")
-    scale = HUMANOID_LEG_M / source_leg
+    return SourceFrame(index, basis, HUMANOID_LEG_M / source_leg, options.units or detect_units(height), height, source_rest)
+
+
+def retarget(bvh: Bvh, rig: RigMap, options: RetargetOptions = RetargetOptions(), path="BVH", name: str = "bvh"):
+    """(ReferenceMotion, report dict) of a BVH clip retargeted onto the humanoid."""
+    if len(bvh.frames) < 2:
+        raise SfvError(f"{path}: a motion needs at least 2 frames, found {len(bvh.frames)}")
+    frame = source_frame(bvh, rig, options, path)
+    index, basis, scale, units, height = frame.index, frame.basis, frame.scale, frame.units, frame.height
+    source_leg = HUMANOID_LEG_M / scale
+    source_rest = frame.rest
 
     positions, rotations = bvh_forward_kinematics(bvh)
     c_quat = Rotation.from_matrix(basis).as_quat(scalar_first=True)
@@ -287,13 +309,13 @@ def retarget(bvh: Bvh, rig: RigMap, options: RetargetOptions = RetargetOptions()
     root_rot, joint_rot, clipped, off_axis = local_rotations(targets, len(bvh.frames))
 
     hips = 0.5 * (positions[:, index["right_hip"]] + positions[:, index["left_hip"]])
-    root_pos = scale * hips @ basis.T
+    root_pos = frame.to_humanoid(hips)
     root_pos[:, :2] -= root_pos[0, :2]
     root_pos, ground = fit_ground(root_pos, root_rot, joint_rot)
     dt = bvh.frame_time
     link_pos, _ = forward_kinematics(root_pos, root_rot, joint_rot)
     feet = [LINK_NAMES.index(f) for f in FEET]
-    source_ankles = scale * positions[:, [index[f] for f in FEET]] @ basis.T
+    source_ankles = frame.to_humanoid(positions[:, [index[f] for f in FEET]])
     loop = is_loop(root_pos, root_rot, joint_rot) if options.loop is None else options.loop
     motion = ReferenceMotion(name, np.arange(len(bvh.frames)) * dt, root_pos, root_rot, joint_rot, loop)
     report = {
