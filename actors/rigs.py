@@ -64,6 +64,7 @@ class RigPreset:
     name: str
     prefix: str  # regex the source names must start with ("" = none); stripped before matching
     names: dict  # target -> tuple of accepted names (first present wins), lower case
+    marks: tuple = ()  # for detection: one of these (lower case) must be present, when given
 
     def resolve(self, joint_names: list[str]) -> tuple[dict, list[str]]:
         """(target -> source name for every target found, required targets not found)."""
@@ -113,7 +114,7 @@ RIG_PRESETS: tuple[RigPreset, ...] = (
     RigPreset("cmu-original", "", {
         "root": ("hips",), "chest": ("spine1", "spine"), "neck": ("neck", "neck1"), "head": ("head",),
         **_HUMANIK_LIMBS,
-    }),
+    }, marks=("lowerback", "lhipjoint", "rhipjoint")),
     RigPreset("lafan1", r"(?:[^:]*:)?", _HUMANIK),
 )
 PRESET_NAMES = tuple(p.name for p in RIG_PRESETS)
@@ -126,24 +127,20 @@ def _preset(name: str) -> RigPreset:
     raise KeyError(name)
 
 
-def _is_cmu_original(joint_names: list[str]) -> bool:
-    """CMU's own names share HumanIK's; its LowerBack and *HipJoint joints tell them apart."""
-    lower = {n.lower() for n in joint_names}
-    return "lowerback" in lower or "lhipjoint" in lower
-
-
 def detect_rig(joint_names: list[str], path: str | os.PathLike = "BVH") -> RigMap:
     """The preset that maps all required targets (most targets, then prefix, wins)."""
     best, best_key, closest = None, None, None
+    lower = {n.lower() for n in joint_names}
     for order, preset in enumerate(RIG_PRESETS):
+        if preset.marks and not lower & set(preset.marks):
+            continue  # CMU's own names are HumanIK's; its LowerBack and *HipJoint tell them apart
         found, missing = preset.resolve(joint_names)
         if closest is None or len(missing) < len(closest[1]):
             closest = (preset, missing)
         if missing:
             continue
         specific = bool(preset.prefix) and not preset.name == "lafan1"
-        cmu_match = preset.name == "cmu-original" and _is_cmu_original(joint_names)
-        key = (len(found), cmu_match, specific, -order)
+        key = (len(found), bool(preset.marks), specific, -order)
         if best_key is None or key > best_key:
             best, best_key = RigMap(preset.name, found), key
     if best is None:

@@ -64,7 +64,7 @@ def _wobble(frames: int, amplitude_deg: float, axis, phase: float) -> np.ndarray
     return qn.quat_about_axis(angle, np.asarray(axis, np.float64) / np.linalg.norm(axis))
 
 
-def _skeleton(link_rot: np.ndarray) -> list[tuple]:
+def _skeleton(link_rot: np.ndarray, arm_out_deg: float) -> list[tuple]:
     """(role, parent role, rest offset (humanoid axes, m), global rotations (T, 4)) per joint."""
     frames = len(link_rot)
     H = lambda name: link_rot[:, _link(name)]  # noqa: E731
@@ -76,7 +76,7 @@ def _skeleton(link_rot: np.ndarray) -> list[tuple]:
         ("head", "neck", yup_to_zup(end_site_yup(_link("neck"))), qn.quat_mul(H("neck"), _wobble(frames, 15, (0, 1, 0), 0.3))),
     ]
     for side, sign in (("right", -1.0), ("left", 1.0)):
-        a_pose = qn.quat_about_axis(np.radians(sign * A_POSE_DEG), np.array([1.0, 0.0, 0.0]))
+        a_pose = qn.quat_about_axis(np.radians(sign * arm_out_deg), np.array([1.0, 0.0, 0.0]))
         undo = qn.quat_conj(a_pose)
         arm_down = lambda v: qn.quat_rotate(a_pose, v)  # noqa: E731  (rest offsets of the A-posed arm)
         shoulder = OFFSETS[_link(f"{side}_shoulder")]
@@ -104,10 +104,12 @@ SIX_CHANNELS = ("hips", "spine")
 XYZ_JOINTS = ("left_thumb",)
 
 
-def foreign_bvh_text(motion: ReferenceMotion, names: dict = MIXAMO_NAMES, frame: str = "z_up", body_scale: float = 1.1) -> str:
-    """The BVH text of `motion` on the foreign skeleton (centimetres, `body_scale` times the humanoid)."""
+def foreign_bvh_text(motion: ReferenceMotion, names: dict = MIXAMO_NAMES, frame: str = "z_up", body_scale: float = 1.1,
+                     arm_out_deg: float = A_POSE_DEG) -> str:
+    """The BVH text of `motion` on the foreign skeleton (centimetres, `body_scale` times the humanoid;
+    rest arms `arm_out_deg` out from hanging: 45 an A-pose, 90 a T-pose)."""
     link_pos, link_rot = forward_kinematics(motion.root_pos, motion.root_rot, motion.joint_rot)
-    joints = _skeleton(link_rot)
+    joints = _skeleton(link_rot, arm_out_deg)
     world = FRAMES[frame]
     q_world = world.as_quat(scalar_first=True)
     to_file = lambda q: qn.quat_mul(qn.quat_mul(q_world, q), qn.quat_conj(q_world))  # noqa: E731
