@@ -22,7 +22,7 @@ from actors.retarget import RetargetOptions, source_frame
 from actors.rigs import resolve_rig
 from actors.state import StateLayout
 from services.render.camera import CameraConfig, FollowCamera
-from services.render.caption import WHITE, draw_lines
+from services.render.caption import WHITE, draw_lines, text_scale
 from services.render.offscreen import OffscreenRenderer
 from services.render.video_writer import AtomicVideoWriter
 
@@ -96,6 +96,8 @@ def render_source_video(motion: ReferenceMotion, source: Path, out: Path, height
     left, right = np.empty((height, width, 3), np.uint8), np.empty((height, width, 3), np.uint8)
     with OffscreenRenderer(humanoid.model, width, height) as renderer, AtomicVideoWriter(out, fps) as video:
         panel = SourcePanel(renderer, [j.parent for j in bvh.joints], frame.index)
+        title = f"source {source.name} ({rig_map.name})"
+        scale = text_scale(width, height, [title, "retargeted humanoid"])
         for t in times:
             pose = motion.sample(t)
             layout.pose_to_qpos_qvel(pose, data.qpos, data.qvel)
@@ -105,7 +107,7 @@ def render_source_video(motion: ReferenceMotion, source: Path, out: Path, height
             renderer.render(right)
             source_frame_index = min(int(round(t / bvh.frame_time)), len(bvh.frames) - 1)
             panel.draw(data, camera.camera, points[source_frame_index], left)
-            draw_lines(left, [(f"source {source.name} ({rig_map.name})", WHITE), (f"t {t:.2f} s", WHITE)])
-            draw_lines(right, [("retargeted humanoid", WHITE)])
+            draw_lines(left, [(title, WHITE), (f"t {t:.2f} s", WHITE)], scale)
+            draw_lines(right, [("retargeted humanoid", WHITE)], scale)
             video.append(np.concatenate((left, right), axis=1))
         return video.frames
