@@ -39,9 +39,9 @@ def import_bvh(path: str | os.PathLike, rig: str = "auto", options: RetargetOpti
     names = [j.name for j in bvh.joints]
     rig_map = resolve_rig(rig, names, path)
     units = own_export_units(bvh) if rig_map.name == "sfv" else None
-    if units is not None and options == RetargetOptions():
+    if units is not None and (options.up, options.forward, options.units) == (None, None, None):
         motion = bvh_to_motion(bvh, units, path.stem, path)
-        motion.loop = is_loop(motion.root_pos, motion.root_rot, motion.joint_rot)
+        motion.loop = is_loop(motion.root_pos, motion.root_rot, motion.joint_rot) if options.loop is None else options.loop
         return motion, {"rig": "sfv", "units": units, "exact": True, "loop": motion.loop}
     return retarget(bvh, rig_map, options, path, path.stem)
 

@@ -41,6 +41,13 @@ UNREAL_NAMES = {
         ("index2", "index_02"), ("thumb", "thumb_01"), ("upleg", "thigh"), ("leg", "calf"), ("foot", "foot"),
         ("toe", "ball"))},
 }
+CGSPEED_CMU_NAMES = {
+    "hips": "hip", "spine": "abdomen", "chest": "chest", "neck": "neck", "head": "head",
+    **{f"{s}_{part}": f"{s[0]}{name}" for s in ("right", "left") for part, name in (
+        ("collar", "Collar"), ("arm", "Shldr"), ("forearm", "ForeArm"), ("hand", "Hand"), ("index1", "Index1"),
+        ("index2", "Index2"), ("thumb", "Thumb1"), ("upleg", "Thigh"), ("leg", "Shin"), ("foot", "Foot"),
+        ("toe", "Toe"))},
+}
 # The map file a user would write for UNREAL_NAMES (source joint: humanoid target).
 UNREAL_MAP = {
     "pelvis": "root", "spine_02": "chest", "neck_01": "neck", "head": "head",

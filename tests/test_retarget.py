@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from actors import quaternion as qn
-from actors.bvh import write_bvh
+from actors.bvh import motion_to_bvh_text, write_bvh
 from actors.bvh_import import import_bvh
 from actors.foot_contact import sole_heights
 from actors.kinematics import forward_kinematics
@@ -22,7 +22,7 @@ from actors.motion_io import load_motion
 from actors.retarget import RetargetOptions
 from actors.skeleton import HINGE_AXIS, JOINT_NAMES
 from services.cli import main
-from tests.foreign_rig import MIXAMO_NAMES, UNREAL_MAP, UNREAL_NAMES, foreign_bvh_text
+from tests.foreign_rig import CGSPEED_CMU_NAMES, MIXAMO_NAMES, UNREAL_MAP, UNREAL_NAMES, foreign_bvh_text
 
 ANGLE_TOL_RAD = 1e-3
 POSITION_TOL_M = 0.01
@@ -58,6 +58,33 @@ def test_t_pose_and_arms_down_rest_poses(walk_clip, tmp_path, arm_out_deg):
     path = tmp_path / "walk.bvh"
     path.write_text(foreign_bvh_text(walk_clip, MIXAMO_NAMES, "y_up", body_scale=0.9, arm_out_deg=arm_out_deg))
     assert_same_motion(walk_clip, import_bvh(path)[0])
+
+
+def test_cmu_rig_in_t_pose(walk_clip, tmp_path):
+    path = tmp_path / "walk.bvh"
+    path.write_text(foreign_bvh_text(walk_clip, CGSPEED_CMU_NAMES, "y_up", body_scale=1.2, arm_out_deg=90.0))
+    back, report = import_bvh(path)
+    assert report["rig"] == "cmu" and report["folded_joints"] == 11  # the toes too: cmu names none
+    assert_same_motion(walk_clip, back)
+
+
+def test_own_names_on_other_proportions_are_retargeted(walk_clip, tmp_path):
+    """The project's joint names with a 1.25x skeleton: not the exact path, the sfv preset."""
+    lines = motion_to_bvh_text(walk_clip, "cm").split("\n")
+    start = lines.index("MOTION") + 3
+    for i, line in enumerate(lines):
+        if line.strip().startswith("OFFSET"):
+            head, numbers = line.split("OFFSET")
+            lines[i] = head + "OFFSET " + " ".join(f"{1.25 * float(v):.6f}" for v in numbers.split())
+        elif i >= start and line:
+            values = line.split()
+            lines[i] = " ".join([f"{1.25 * float(v):.6f}" for v in values[:3]] + values[3:])
+    path = tmp_path / "big.bvh"
+    path.write_text("\n".join(lines))
+    back, report = import_bvh(path)
+    assert report["rig"] == "sfv" and "exact" not in report
+    assert report["leg_ratio"] == pytest.approx(0.8, rel=1e-4)
+    assert_same_motion(walk_clip, back)
 
 
 def test_unknown_names_need_a_map_file(walk_clip, tmp_path):
