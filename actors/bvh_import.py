@@ -29,8 +29,9 @@ def own_export_units(bvh: Bvh) -> str | None:
     return None
 
 
-def import_bvh(path: str | os.PathLike, rig: str = "auto", options: RetargetOptions = RetargetOptions()) -> tuple[ReferenceMotion, dict]:
+def import_bvh(path: str | os.PathLike, rig: str = "auto", options: RetargetOptions | None = None) -> tuple[ReferenceMotion, dict]:
     """(motion, report). Any fault is one SfvError line naming the file."""
+    options = options or RetargetOptions()
     path = Path(path)
     try:
         bvh = read_bvh(path)

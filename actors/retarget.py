@@ -59,13 +59,27 @@ from actors import quaternion as qn
 from actors.bvh import Bvh, end_site_yup
 from actors.bvh_pose import bvh_forward_kinematics, rest_positions, rest_tip
 from actors.errors import SfvError
-from actors.foot_contact import LOW_QUANTILE, penetration_depth, skating_speed, sole_heights
+from actors.foot_contact import (
+    LOW_QUANTILE,
+    penetration_depth,
+    skating_speed,
+    sole_heights,
+)
 from actors.kinematics import forward_kinematics
 from actors.motion import ReferenceMotion
 from actors.rigs import RigMap
 from actors.skeleton import (
-    HINGE_AXIS, LINK_JOINT, LINK_NAMES, LINKS, NUM_JOINTS, NUM_LINKS, OFFSETS, PARENTS,
-    joint_limits_zup, revolute_angle, yup_to_zup,
+    HINGE_AXIS,
+    LINK_JOINT,
+    LINK_NAMES,
+    LINKS,
+    NUM_JOINTS,
+    NUM_LINKS,
+    OFFSETS,
+    PARENTS,
+    joint_limits_zup,
+    revolute_angle,
+    yup_to_zup,
 )
 
 UNIT_METRES = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
@@ -288,49 +302,52 @@ def source_frame(bvh: Bvh, rig: RigMap, options: RetargetOptions = RetargetOptio
     return SourceFrame(index, basis, HUMANOID_LEG_M / source_leg, options.units or detect_units(height), height, source_rest)
 
 
+def target_rotations(frame: SourceFrame, rotations: np.ndarray) -> dict:
+    """Step 5: T_k(t) = C G_k(t) C^T A_k for every mapped humanoid link, (T, 4) each."""
+    c_quat = Rotation.from_matrix(frame.basis).as_quat(scalar_first=True)
+    offsets = rest_offsets(frame.rest)
+    targets = {}
+    for target, joint in frame.index.items():
+        if target in LINK_NAMES:
+            global_rot = qn.quat_mul(qn.quat_mul(c_quat, rotations[:, joint]), qn.quat_conj(c_quat))
+            targets[target] = qn.quat_mul(global_rot, offsets[target]) if target in offsets else global_rot
+    return targets
+
+
+def root_positions(frame: SourceFrame, positions: np.ndarray) -> np.ndarray:
+    """Step 7: the middle of the source hips in humanoid axes and size, starting above the origin."""
+    hips = 0.5 * (positions[:, frame.index["right_hip"]] + positions[:, frame.index["left_hip"]])
+    root_pos = frame.to_humanoid(hips)
+    root_pos[:, :2] -= root_pos[0, :2]
+    return root_pos
+
+
 def retarget(bvh: Bvh, rig: RigMap, options: RetargetOptions = RetargetOptions(), path="BVH", name: str = "bvh"):
     """(ReferenceMotion, report dict) of a BVH clip retargeted onto the humanoid."""
     if len(bvh.frames) < 2:
         raise SfvError(f"{path}: a motion needs at least 2 frames, found {len(bvh.frames)}")
     frame = source_frame(bvh, rig, options, path)
-    index, basis, scale, units, height = frame.index, frame.basis, frame.scale, frame.units, frame.height
-    source_leg = HUMANOID_LEG_M / scale
-    source_rest = frame.rest
-
     positions, rotations = bvh_forward_kinematics(bvh)
-    c_quat = Rotation.from_matrix(basis).as_quat(scalar_first=True)
-    to_humanoid = lambda q: qn.quat_mul(qn.quat_mul(c_quat, q), qn.quat_conj(c_quat))  # noqa: E731
-    offsets = rest_offsets(source_rest)
-    targets = {}
-    for target, joint in index.items():
-        if target in LINK_NAMES:
-            global_rot = to_humanoid(rotations[:, joint])
-            targets[target] = qn.quat_mul(global_rot, offsets[target]) if target in offsets else global_rot
-    root_rot, joint_rot, clipped, off_axis = local_rotations(targets, len(bvh.frames))
-
-    hips = 0.5 * (positions[:, index["right_hip"]] + positions[:, index["left_hip"]])
-    root_pos = frame.to_humanoid(hips)
-    root_pos[:, :2] -= root_pos[0, :2]
-    root_pos, ground = fit_ground(root_pos, root_rot, joint_rot)
-    dt = bvh.frame_time
-    link_pos, _ = forward_kinematics(root_pos, root_rot, joint_rot)
-    feet = [LINK_NAMES.index(f) for f in FEET]
-    source_ankles = frame.to_humanoid(positions[:, [index[f] for f in FEET]])
+    root_rot, joint_rot, clipped, off_axis = local_rotations(target_rotations(frame, rotations), len(bvh.frames))
+    root_pos, ground = fit_ground(root_positions(frame, positions), root_rot, joint_rot)
     loop = is_loop(root_pos, root_rot, joint_rot) if options.loop is None else options.loop
+    dt = bvh.frame_time
     motion = ReferenceMotion(name, np.arange(len(bvh.frames)) * dt, root_pos, root_rot, joint_rot, loop)
+    link_pos, _ = forward_kinematics(root_pos, root_rot, joint_rot)
+    source_ankles = frame.to_humanoid(positions[:, [frame.index[f] for f in FEET]])
     report = {
         "rig": rig.name,
         "mapped": dict(rig.joints),
-        "folded_joints": len(bvh.joints) - len(set(index.values())),
-        "up": _axis_name(basis[2]), "forward": _axis_name(basis[0]),
-        "units": units, "source_height_m": round(height * UNIT_METRES[units], 4),
-        "leg_ratio": round(HUMANOID_LEG_M / (source_leg * UNIT_METRES[units]), 6),
+        "folded_joints": len(bvh.joints) - len(set(frame.index.values())),
+        "up": _axis_name(frame.basis[2]), "forward": _axis_name(frame.basis[0]),
+        "units": frame.units, "source_height_m": round(frame.height * UNIT_METRES[frame.units], 4),
+        "leg_ratio": round(frame.scale / UNIT_METRES[frame.units], 6),
         "clipped_deg": {k: round(v, 3) for k, v in clipped.items() if v > 1e-6},
         "clipped_max_deg": round(max(clipped.values()), 3),
         "hinge_off_axis_deg": {k: round(v, 3) for k, v in off_axis.items()},
         **ground,
         "skating_source_mps": round(skating_speed(source_ankles, dt), 6),
-        "skating_mps": round(skating_speed(link_pos[:, feet], dt), 6),
+        "skating_mps": round(skating_speed(link_pos[:, [LINK_NAMES.index(f) for f in FEET]], dt), 6),
         "loop": loop,
     }
     return motion, report

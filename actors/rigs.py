@@ -139,7 +139,7 @@ def detect_rig(joint_names: list[str], path: str | os.PathLike = "BVH") -> RigMa
             closest = (preset, missing)
         if missing:
             continue
-        specific = bool(preset.prefix) and not preset.name == "lafan1"
+        specific = bool(preset.prefix) and preset.name != "lafan1"
         key = (len(found), bool(preset.marks), specific, -order)
         if best_key is None or key > best_key:
             best, best_key = RigMap(preset.name, found), key

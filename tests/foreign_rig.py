@@ -74,7 +74,7 @@ def _wobble(frames: int, amplitude_deg: float, axis, phase: float) -> np.ndarray
 def _skeleton(link_rot: np.ndarray, arm_out_deg: float) -> list[tuple]:
     """(role, parent role, rest offset (humanoid axes, m), global rotations (T, 4)) per joint."""
     frames = len(link_rot)
-    H = lambda name: link_rot[:, _link(name)]  # noqa: E731
+    H = lambda name: link_rot[:, _link(name)]
     joints = [
         ("hips", None, np.zeros(3), H("root")),
         ("spine", "hips", 0.5 * OFFSETS[_link("chest")], qn.quat_slerp(H("root"), H("chest"), 0.5)),
@@ -85,7 +85,7 @@ def _skeleton(link_rot: np.ndarray, arm_out_deg: float) -> list[tuple]:
     for side, sign in (("right", -1.0), ("left", 1.0)):
         a_pose = qn.quat_about_axis(np.radians(sign * arm_out_deg), np.array([1.0, 0.0, 0.0]))
         undo = qn.quat_conj(a_pose)
-        arm_down = lambda v: qn.quat_rotate(a_pose, v)  # noqa: E731  (rest offsets of the A-posed arm)
+        arm_down = lambda v, a_pose=a_pose: qn.quat_rotate(a_pose, v)
         shoulder = OFFSETS[_link(f"{side}_shoulder")]
         hand = qn.quat_mul(qn.quat_mul(H(f"{side}_elbow"), undo), _wobble(frames, 25, (1, 0, 0), 1.0))
         joints += [
@@ -119,7 +119,7 @@ def foreign_bvh_text(motion: ReferenceMotion, names: dict = MIXAMO_NAMES, frame:
     joints = _skeleton(link_rot, arm_out_deg)
     world = FRAMES[frame]
     q_world = world.as_quat(scalar_first=True)
-    to_file = lambda q: qn.quat_mul(qn.quat_mul(q_world, q), qn.quat_conj(q_world))  # noqa: E731
+    to_file = lambda q: qn.quat_mul(qn.quat_mul(q_world, q), qn.quat_conj(q_world))
     cm = 100.0 * body_scale
     globals_ = {role: rot for role, _, _, rot in joints}
     columns, lines = [], ["HIERARCHY"]

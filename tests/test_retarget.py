@@ -22,7 +22,13 @@ from actors.motion_io import load_motion
 from actors.retarget import RetargetOptions
 from actors.skeleton import HINGE_AXIS, JOINT_NAMES
 from services.cli import main
-from tests.foreign_rig import CGSPEED_CMU_NAMES, MIXAMO_NAMES, UNREAL_MAP, UNREAL_NAMES, foreign_bvh_text
+from tests.foreign_rig import (
+    CGSPEED_CMU_NAMES,
+    MIXAMO_NAMES,
+    UNREAL_MAP,
+    UNREAL_NAMES,
+    foreign_bvh_text,
+)
 
 ANGLE_TOL_RAD = 1e-3
 POSITION_TOL_M = 0.01

@@ -46,7 +46,7 @@ def test_unmappable_rig_names_the_file_and_the_gap():
 
 
 def _lafan_map() -> dict:
-    return {**{"Hips": "root", "Spine2": "chest"}, **{f"{S}{part}": f"{side}_{t}" for S, side in (("Left", "left"), ("Right", "right"))
+    return {"Hips": "root", "Spine2": "chest", **{f"{S}{part}": f"{side}_{t}" for S, side in (("Left", "left"), ("Right", "right"))
             for part, t in (("UpLeg", "hip"), ("Leg", "knee"), ("Foot", "ankle"), ("Arm", "shoulder"), ("ForeArm", "elbow"))}}
 
 

@@ -109,7 +109,12 @@ def _is_bvh(name: str) -> bool:
 
 
 def run_convert(args: argparse.Namespace) -> int:
-    from actors.motion_io import check_motion, load_motion, resolve_motion_path, save_motion
+    from actors.motion_io import (
+        check_motion,
+        load_motion,
+        resolve_motion_path,
+        save_motion,
+    )
 
     retarget_report = None
     if _is_bvh(args.motion):

@@ -76,8 +76,9 @@ class SourcePanel:
 
 
 def render_source_video(motion: ReferenceMotion, source: Path, out: Path, height: int = 480, rig: str = "auto",
-                        options: RetargetOptions = RetargetOptions()) -> int:
+                        options: RetargetOptions | None = None) -> int:
     """Write the MP4 (atomically); returns the number of frames."""
+    options = options or RetargetOptions()
     bvh = read_bvh(source)
     rig_map = resolve_rig(rig, [j.name for j in bvh.joints], source)
     frame = source_frame(bvh, rig_map, options, source)
@@ -86,7 +87,7 @@ def render_source_video(motion: ReferenceMotion, source: Path, out: Path, height
     hips = 0.5 * (points[:, frame.index["right_hip"]] + points[:, frame.index["left_hip"]])
     points += motion.root_pos[0] - hips[0]
 
-    width = 2 * int(round(height * 2 / 3 / 2))
+    width = 2 * round(height / 3)
     humanoid = Humanoid()
     layout = StateLayout(humanoid)
     data = mujoco.MjData(humanoid.model)
@@ -105,7 +106,7 @@ def render_source_video(motion: ReferenceMotion, source: Path, out: Path, height
             camera.snap(pose.root_pos[:2])
             renderer.update(data, camera.camera)
             renderer.render(right)
-            source_frame_index = min(int(round(t / bvh.frame_time)), len(bvh.frames) - 1)
+            source_frame_index = min(round(t / bvh.frame_time), len(bvh.frames) - 1)
             panel.draw(data, camera.camera, points[source_frame_index], left)
             draw_lines(left, [(title, WHITE), (f"t {t:.2f} s", WHITE)], scale)
             draw_lines(right, [("retargeted humanoid", WHITE)], scale)
