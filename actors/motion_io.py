@@ -64,7 +64,7 @@ def load_motion(name_or_path: str) -> ReferenceMotion:
             magic = f.read(64)
     except OSError as exc:
         raise MotionFormatError(f"{path}: cannot read motion file ({exc.strerror or exc})") from None
-    if path.suffix.lower() == ".bvh" or magic.lstrip().startswith(b"HIERARCHY"):
+    if _looks_like_bvh(path, magic):
         from actors.bvh_import import load_bvh_clip
 
         motion = load_bvh_clip(path)
@@ -77,6 +77,20 @@ def load_motion(name_or_path: str) -> ReferenceMotion:
     if str(name_or_path).startswith("deepmimic:"):
         motion.name = str(name_or_path)
     return motion
+
+
+def _looks_like_bvh(path: Path, head: bytes) -> bool:
+    return path.suffix.lower() == ".bvh" or head.lstrip().startswith(b"HIERARCHY")
+
+
+def is_bvh_file(path: str | os.PathLike) -> bool:
+    """A .bvh name, or a file whose text starts with BVH's HIERARCHY keyword."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as f:
+            return _looks_like_bvh(path, f.read(64))
+    except OSError:
+        return path.suffix.lower() == ".bvh"
 
 
 # --------------------------------------------------------------------- validation

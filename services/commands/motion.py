@@ -95,29 +95,11 @@ def run_check(args: argparse.Namespace) -> int:
     return 0
 
 
-def _is_bvh(name: str) -> bool:
-    from pathlib import Path
-
-    path = Path(name)
-    if path.suffix.lower() == ".bvh":
-        return True
-    try:
-        with open(path, "rb") as f:
-            return f.read(64).lstrip().startswith(b"HIERARCHY")
-    except OSError:
-        return False
-
-
 def run_convert(args: argparse.Namespace) -> int:
-    from actors.motion_io import (
-        check_motion,
-        load_motion,
-        resolve_motion_path,
-        save_motion,
-    )
+    from actors.motion_io import check_motion, is_bvh_file, load_motion, resolve_motion_path, save_motion
 
     retarget_report = None
-    if _is_bvh(args.motion):
+    if not args.motion.startswith("deepmimic:") and is_bvh_file(args.motion):
         from actors.bvh_import import import_bvh
         from actors.retarget import RetargetOptions
 
