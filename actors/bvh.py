@@ -19,7 +19,8 @@ Conventions of the files written here (what Blender, MotionBuilder and most BVH 
   Unevenly timed clips are resampled at their mean rate first.
 
 The reader parses any BVH (any channel order, End Sites, CRLF); `bvh_to_motion` turns a
-file with this skeleton back into a ReferenceMotion.
+file with this skeleton back into a ReferenceMotion; files from other rigs are retargeted by
+`actors/bvh_import.py` (`actors/retarget.py`).
 """
 from __future__ import annotations
 

@@ -146,7 +146,7 @@ def detect_rig(joint_names: list[str], path: str | os.PathLike = "BVH") -> RigMa
     if best is None:
         preset, missing = closest
         raise SfvError(f"{path}: cannot map this rig onto the humanoid (closest preset {preset.name} lacks "
-                       f"{', '.join(missing[:4])}{' ...' if len(missing) > 4 else ''}); give --rig NAME or --rig MAP.yaml")
+                       f"{', '.join(missing[:4])}{' ...' if len(missing) > 4 else ''}); convert it with `sfv motion convert` --rig NAME or --rig MAP.yaml")
     return best
 
 
