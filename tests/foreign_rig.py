@@ -112,15 +112,15 @@ XYZ_JOINTS = ("left_thumb",)
 
 
 def foreign_bvh_text(motion: ReferenceMotion, names: dict = MIXAMO_NAMES, frame: str = "z_up", body_scale: float = 1.1,
-                     arm_out_deg: float = A_POSE_DEG) -> str:
-    """The BVH text of `motion` on the foreign skeleton (centimetres, `body_scale` times the humanoid;
-    rest arms `arm_out_deg` out from hanging: 45 an A-pose, 90 a T-pose)."""
+                     arm_out_deg: float = A_POSE_DEG, units_per_metre: float = 100.0) -> str:
+    """The BVH text of `motion` on the foreign skeleton (centimetres unless told, `body_scale` times
+    the humanoid; rest arms `arm_out_deg` out from hanging: 45 an A-pose, 90 a T-pose)."""
     link_pos, link_rot = forward_kinematics(motion.root_pos, motion.root_rot, motion.joint_rot)
     joints = _skeleton(link_rot, arm_out_deg)
     world = FRAMES[frame]
     q_world = world.as_quat(scalar_first=True)
     to_file = lambda q: qn.quat_mul(qn.quat_mul(q_world, q), qn.quat_conj(q_world))
-    cm = 100.0 * body_scale
+    cm = units_per_metre * body_scale
     globals_ = {role: rot for role, _, _, rot in joints}
     columns, lines = [], ["HIERARCHY"]
 

@@ -125,6 +125,15 @@ def test_convert_reports_what_it_did(walk_clip, tmp_path, capsys):
     assert retarget["skating_mps"] == pytest.approx(retarget["skating_source_mps"], abs=0.01)
 
 
+@pytest.mark.parametrize("units, per_metre", [("m", 1.0), ("mm", 1000.0), ("in", 1 / 0.0254)])
+def test_units_are_told_by_the_skeleton_size(walk_clip, tmp_path, units, per_metre):
+    path = tmp_path / "walk.bvh"
+    path.write_text(foreign_bvh_text(walk_clip, MIXAMO_NAMES, "z_up", units_per_metre=per_metre))
+    back, report = import_bvh(path)
+    assert report["units"] == units and report["source_height_m"] == pytest.approx(1.638, abs=2e-3)
+    assert_same_motion(walk_clip, back)
+
+
 def test_given_axes_override_detection(walk_clip, tmp_path):
     path = tmp_path / "walk.bvh"
     path.write_text(foreign_bvh_text(walk_clip, MIXAMO_NAMES, "y_up"))
