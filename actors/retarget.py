@@ -58,6 +58,7 @@ from scipy.spatial.transform import Rotation
 from actors import quaternion as qn
 from actors.bvh import Bvh, end_site_yup
 from actors.bvh_pose import bvh_forward_kinematics, rest_positions, rest_tip
+from actors.bvh_units import AXES, UNIT_METRES
 from actors.errors import SfvError
 from actors.foot_contact import (
     LOW_QUANTILE,
@@ -82,9 +83,7 @@ from actors.skeleton import (
     yup_to_zup,
 )
 
-UNIT_METRES = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
 HUMAN_HEIGHT_M = 1.5  # ankle to head joint of an adult; only used to tell the units apart
-AXES = {"+x": (1, 0, 0), "-x": (-1, 0, 0), "+y": (0, 1, 0), "-y": (0, -1, 0), "+z": (0, 0, 1), "-z": (0, 0, -1)}
 LIMB_TIPS = {
     "right_hip": "right_knee", "right_knee": "right_ankle", "right_ankle": "right_toe",
     "left_hip": "left_knee", "left_knee": "left_ankle", "left_ankle": "left_toe",

@@ -41,7 +41,7 @@ def register(subparsers) -> None:
 
 
 def _add_bvh_flags(parser) -> None:
-    from actors.retarget import AXES, UNIT_METRES
+    from actors.bvh_units import AXES, UNIT_METRES
     from actors.rigs import PRESET_NAMES
 
     group = parser.add_argument_group("BVH input (ignored by other formats)")
