@@ -19,7 +19,8 @@ Conventions of the files written here (what Blender, MotionBuilder and most BVH 
   Unevenly timed clips are resampled at their mean rate first.
 
 The reader parses any BVH (any channel order, End Sites, CRLF); `bvh_to_motion` turns a
-file with this skeleton back into a ReferenceMotion.
+file with this skeleton back into a ReferenceMotion; files from other rigs are retargeted by
+`actors/bvh_import.py` (`actors/retarget.py`).
 """
 from __future__ import annotations
 
@@ -85,7 +86,7 @@ class BvhJoint:
     end_site: np.ndarray | None = None  # (3,) offset of the End Site, if the joint is a leaf
 
 
-def _end_site_yup(link_index: int) -> np.ndarray:
+def end_site_yup(link_index: int) -> np.ndarray:
     """Where a leaf joint's End Site goes: a welded child link, else the tip of its geometry."""
     for child in LINKS:
         if child.parent == link_index and child.joint == "fixed":
@@ -107,7 +108,7 @@ def humanoid_bvh_joints(scale: float) -> list[BvhJoint]:
         children = [c for c in keep if LINKS[c].parent == link_index]
         channels = (POSITION_CHANNELS if parent < 0 else ()) + ROTATION_CHANNELS
         offset = np.zeros(3) if parent < 0 else scale * np.asarray(link.offset_yup, np.float64)
-        end_site = None if children else scale * _end_site_yup(link_index)
+        end_site = None if children else scale * end_site_yup(link_index)
         joints.append(BvhJoint(link.name, parent, offset, channels, end_site))
         me = len(joints) - 1
         for child in children:
@@ -297,7 +298,7 @@ def read_bvh(path: str | os.PathLike) -> Bvh:
 
 
 # -------------------------------------------------------------------- to a motion
-def _rotation_quats(bvh: Bvh, index: int) -> np.ndarray:
+def rotation_quats(bvh: Bvh, index: int) -> np.ndarray:
     """(T, 4) wxyz local rotation of a joint from its rotation channels, whatever their order."""
     joint = bvh.joints[index]
     values = bvh.channels_of(index)
@@ -334,10 +335,10 @@ def bvh_to_motion(bvh: Bvh, units: str = "cm", name: str = "bvh", path: str | os
         raise SfvError(f"{path}: the root joint has no position channels")
     root_values = bvh.channels_of(root)
     root_pos_yup = np.stack([root_values[:, root_channels.index(c)] for c in POSITION_CHANNELS], axis=-1) / UNITS[units]
-    root_rot = yup_to_zup_quat(_rotation_quats(bvh, root))
+    root_rot = yup_to_zup_quat(rotation_quats(bvh, root))
     joint_rot = np.empty((len(bvh.frames), NUM_JOINTS, 4))
     for j, joint_name in enumerate(JOINT_NAMES):
-        joint_rot[:, j] = yup_to_zup_quat(_rotation_quats(bvh, bvh.joint_index(joint_name)))
+        joint_rot[:, j] = yup_to_zup_quat(rotation_quats(bvh, bvh.joint_index(joint_name)))
     frame_times = np.arange(len(bvh.frames)) * bvh.frame_time
     return ReferenceMotion(
         name, frame_times, yup_to_zup_vec(root_pos_yup), qn.quat_normalize(_continuous(root_rot)),

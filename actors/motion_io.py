@@ -8,6 +8,8 @@ Formats
 - The project's own `.npz` (format 1): `format` = "sfv-motion-1", `name`, `frame_times` (T,),
   `root_pos` (T, 3), `root_rot` (T, 4 wxyz), `joint_rot` (T, 12, 4 wxyz), `joint_names` (12,),
   `loop` (bool). Any other array is kept in `ReferenceMotion.extras` and written back.
+- BVH (`.bvh`, or any file starting with HIERARCHY) from any rig: the rig is detected from
+  its joint names and the clip retargeted onto the humanoid (`actors/bvh_import.py`).
 - Names: `deepmimic:<clip>` resolves to `pybullet_data/data/motions/humanoid3d_<clip>.txt`
   (install the `mocap` extra); anything else is a path.
 
@@ -59,13 +61,19 @@ def resolve_motion_path(name_or_path: str) -> Path:
 
 
 def load_motion(name_or_path: str) -> ReferenceMotion:
-    """Load a motion by name (`deepmimic:walk`) or path (.npz or DeepMimic JSON)."""
+    """Load a motion by name (`deepmimic:walk`) or path (.npz, DeepMimic JSON or BVH)."""
     path = resolve_motion_path(str(name_or_path))
     try:
         with open(path, "rb") as f:
-            magic = f.read(4)
+            magic = f.read(64)
     except OSError as exc:
         raise MotionFormatError(f"{path}: cannot read motion file ({exc.strerror or exc})") from None
+    if _looks_like_bvh(path, magic):
+        from actors.bvh_import import load_bvh_clip
+
+        motion = load_bvh_clip(path)
+        _check_derived(path, motion)
+        return motion
     # Overflow is detected after loading (`_check_derived`), so numpy need not warn about it.
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
         motion = _load_npz(path) if magic.startswith(b"PK") else _load_deepmimic(path)
@@ -73,6 +81,20 @@ def load_motion(name_or_path: str) -> ReferenceMotion:
     if str(name_or_path).startswith("deepmimic:"):
         motion.name = str(name_or_path)
     return motion
+
+
+def _looks_like_bvh(path: Path, head: bytes) -> bool:
+    return path.suffix.lower() == ".bvh" or head.lstrip().startswith(b"HIERARCHY")
+
+
+def is_bvh_file(path: str | os.PathLike) -> bool:
+    """A .bvh name, or a file whose text starts with BVH's HIERARCHY keyword."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as f:
+            return _looks_like_bvh(path, f.read(64))
+    except OSError:
+        return path.suffix.lower() == ".bvh"
 
 
 # --------------------------------------------------------------------- validation
@@ -194,6 +216,11 @@ def _load_npz(path: Path) -> ReferenceMotion:
         bool(arrays.get("loop", False)),
         extras,
     )
+
+
+def check_motion(path, motion: ReferenceMotion) -> None:
+    """The checks every loaded motion passes (for loaders outside this module)."""
+    _check_derived(path, motion)
 
 
 def _check_derived(path, motion: ReferenceMotion) -> None:

@@ -1,9 +1,12 @@
 """`sfv motion`: inspect and convert reference motions.
 
     sfv motion check MOTION [--physics-hz HZ]
-    sfv motion convert IN --out OUT.npz
+    sfv motion convert IN --out OUT.npz [--rig auto|NAME|MAP.yaml] [--up +y] [--forward +z] [--units cm] [--loop auto]
 
-MOTION is a DeepMimic clip name (`deepmimic:walk`) or a path (.npz or DeepMimic JSON).
+MOTION is a DeepMimic clip name (`deepmimic:walk`) or a path (.npz, DeepMimic JSON or BVH).
+A BVH from another rig is retargeted onto the humanoid (`actors/retarget.py`); `convert`
+then adds what the retargeting did to its JSON (`retarget`: rig, axes, units, clipped
+angles, floor shift, penetration before/after, foot skating of source and result).
 `check` loads the clip, builds the imitation env on it and prints one JSON object: the
 clip's summary and `playback_reward`, the mean reward when the simulated character is put
 exactly on the reference at every control step of one pass of the clip. A value below 1
@@ -33,7 +36,21 @@ def register(subparsers) -> None:
     convert = actions.add_parser("convert", help="load any supported motion format and save it as sfv .npz")
     convert.add_argument("motion", help="deepmimic:<clip> or a path to a .npz / DeepMimic JSON motion")
     convert.add_argument("--out", required=True, help="where to write the .npz (written atomically)")
+    _add_bvh_flags(convert)
     convert.set_defaults(handler=run_convert)
+
+
+def _add_bvh_flags(parser) -> None:
+    from actors.bvh_units import AXES, UNIT_METRES
+    from actors.rigs import PRESET_NAMES
+
+    group = parser.add_argument_group("BVH input (ignored by other formats)")
+    group.add_argument("--rig", default="auto", help=f"auto (detect from joint names), a preset ({', '.join(PRESET_NAMES)}) "
+                       "or a YAML/JSON map 'source joint: humanoid target'")
+    group.add_argument("--up", choices=tuple(AXES), default=None, help="the file's up axis (default: detected)")
+    group.add_argument("--forward", choices=tuple(AXES), default=None, help="the rest pose's facing axis (default: detected)")
+    group.add_argument("--units", choices=tuple(UNIT_METRES), default=None, help="the file's length unit (default: from the skeleton's size)")
+    group.add_argument("--loop", choices=("auto", "yes", "no"), default="auto", help="mark the clip cyclic (auto: last pose near the first)")
 
 
 def _env_config(physics_hz: float | None):
@@ -79,14 +96,28 @@ def run_check(args: argparse.Namespace) -> int:
 
 
 def run_convert(args: argparse.Namespace) -> int:
-    from actors.motion_io import load_motion, save_motion
+    from actors.motion_io import check_motion, is_bvh_file, load_motion, resolve_motion_path, save_motion
 
-    motion = load_motion(args.motion)
+    retarget_report = None
+    if not args.motion.startswith("deepmimic:") and is_bvh_file(args.motion):
+        from actors.bvh_import import import_bvh
+        from actors.retarget import RetargetOptions
+
+        loop = {"auto": None, "yes": True, "no": False}[args.loop]
+        path = resolve_motion_path(args.motion)
+        motion, retarget_report = import_bvh(path, args.rig, RetargetOptions(args.up, args.forward, args.units, loop))
+        check_motion(path, motion)
+    elif args.rig != "auto" or args.up or args.forward or args.units or args.loop != "auto":
+        raise SfvError(f"{args.motion}: --rig, --up, --forward, --units and --loop apply to BVH input only")
+    else:
+        motion = load_motion(args.motion)
     try:
         path = save_motion(motion, args.out)
     except OSError as exc:
         raise SfvError(f"{args.out}: cannot write motion ({exc.strerror or exc})") from None
     report = dict(motion.summary())
     report["out"] = str(path)
+    if retarget_report is not None:
+        report["retarget"] = retarget_report
     print(json.dumps(report))
     return 0

@@ -1,5 +1,8 @@
 """`sfv render-motion MOTION --video VIDEO --out FILE.mp4`: the video with its keypoints beside
-the reconstructed humanoid, rendered by MuJoCo from the estimated camera."""
+the reconstructed humanoid, rendered by MuJoCo from the estimated camera.
+
+`sfv render-motion MOTION --source CLIP.bvh --out FILE.mp4`: the BVH's skeleton as a stick
+figure beside the humanoid retargeted from it (`services/render/source_skeleton.py`)."""
 from __future__ import annotations
 
 import argparse
@@ -12,7 +15,10 @@ from learner.errors import SfvError
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("render-motion", help="render a reconstructed motion beside its video (MP4)")
     parser.add_argument("motion", help="motion file made by `sfv reconstruct` (.npz)")
-    parser.add_argument("--video", type=Path, required=True, help="the video the motion was reconstructed from")
+    source = parser.add_mutually_exclusive_group(required=True)
+    source.add_argument("--video", type=Path, help="the video the motion was reconstructed from")
+    source.add_argument("--source", type=Path, help="the BVH the motion was retargeted from (drawn as a stick figure)")
+    parser.add_argument("--rig", default="auto", help="with --source: the rig (auto, a preset or a map file), as for `sfv motion convert`")
     parser.add_argument("--out", type=Path, required=True, help="output video (.mp4)")
     parser.add_argument("--height", type=int, default=480, help="height in pixels of each half of the output")
     parser.set_defaults(handler=run_render_motion)
@@ -30,6 +36,13 @@ def run_render_motion(args: argparse.Namespace) -> int:
         raise SfvError(f"{args.out}: directory {args.out.parent} does not exist")
     started = time.perf_counter()
     motion = load_motion(args.motion)
+    if args.source is not None:
+        from services.render.source_skeleton import render_source_video
+
+        frames = render_source_video(motion, args.source, args.out, args.height - args.height % 2, args.rig)
+        print(f"{args.motion}: {frames} frames rendered beside the source skeleton of {args.source} in "
+              f"{time.perf_counter() - started:.1f} s -> {args.out}")
+        return 0
     frames = render_motion_video(motion, args.video, args.out, args.height, source=str(args.motion))
     print(f"{args.motion}: {frames} frames rendered beside {args.video} in {time.perf_counter() - started:.1f} s -> {args.out}")
     return 0
