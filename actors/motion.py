@@ -15,7 +15,12 @@ import numpy as np
 
 from actors import quaternion as qn
 from actors.skeleton import NUM_JOINTS
+from learner.errors import SfvError
 
+
+
+class MotionFormatError(SfvError, ValueError):
+    """A motion file is malformed; the message names the file and the fault (any format)."""
 
 @dataclass
 class MotionPose:

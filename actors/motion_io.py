@@ -26,8 +26,7 @@ import numpy as np
 
 from actors import quaternion as qn
 from learner.atomic_io import atomic_output
-from learner.errors import SfvError
-from actors.motion import ReferenceMotion
+from actors.motion import MotionFormatError, ReferenceMotion
 from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, JOINT_NAMES, NUM_JOINTS, revolute_angle
 
 DEEPMIMIC_COLUMNS = 1 + 3 + 4 + int(4 * JOINT_IS_SPHERICAL.sum() + (~JOINT_IS_SPHERICAL).sum())  # 44
@@ -37,10 +36,6 @@ DEEPMIMIC_CLIPS = (
     "backflip", "cartwheel", "crawl", "dance_a", "dance_b", "getup_facedown", "getup_faceup",
     "jump", "kick", "punch", "roll", "run", "spin", "spinkick", "walk",
 )
-
-
-class MotionFormatError(SfvError, ValueError):
-    """A motion file is malformed; the message names the file and the fault."""
 
 
 def resolve_motion_path(name_or_path: str) -> Path:

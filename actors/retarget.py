@@ -59,7 +59,7 @@ from actors import quaternion as qn
 from actors.bvh import Bvh, end_site_yup
 from actors.bvh_pose import bvh_forward_kinematics, rest_positions, rest_tip
 from actors.bvh_units import AXES, UNIT_METRES
-from actors.errors import SfvError
+from learner.errors import SfvError
 from actors.foot_contact import (
     LOW_QUANTILE,
     penetration_depth,

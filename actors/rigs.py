@@ -40,7 +40,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 
 REQUIRED_TARGETS = (
     "root", "right_hip", "right_knee", "right_ankle", "left_hip", "left_knee", "left_ankle",

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from actors import quaternion as qn
-from actors.motion_io import MotionFormatError
+from actors.motion import MotionFormatError
 from actors.humanoid import Humanoid
 from actors.motion import ReferenceMotion
 from actors.motion_io import DEEPMIMIC_CLIPS, DEEPMIMIC_COLUMNS, load_motion, save_motion

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from actors.errors import SfvError
+from learner.errors import SfvError
 from actors.rigs import detect_rig, load_rig_map, resolve_rig
 
 SIDES = (("Left", "l"), ("Right", "r"))
