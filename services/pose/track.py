@@ -26,6 +26,9 @@ KEYPOINT_NAMES: tuple[str, ...] = (
 )
 
 
+OPTIONAL_FIELDS = ("start_frame", "person_id")
+
+
 @dataclass
 class PoseTrack:
     fps: float
@@ -38,6 +41,10 @@ class PoseTrack:
     rotation_used: np.ndarray    # (T,) int16 degrees the frame was turned clockwise for the kept answer
     filled_frames: int           # frames with valid=False whose landmarks were interpolated
     keypoint_names: tuple[str, ...] = KEYPOINT_NAMES
+    # Optional (files written before several people were tracked lack them): the video frame
+    # of row 0 (`--frames A:B`), and which identity of `sfv pose --people` this track follows.
+    start_frame: int = 0
+    person_id: int = 0
 
     def __len__(self) -> int:
         return len(self.valid)
@@ -57,7 +64,8 @@ class PoseTrack:
             raise SfvError(f"{path}: no such pose track file")
         try:
             with np.load(path, allow_pickle=False) as data:
-                values = {f.name: data[f.name] for f in fields(cls)}
+                values = {f.name: data[f.name] for f in fields(cls) if f.name not in OPTIONAL_FIELDS}
+                optional = {name: int(data[name]) for name in OPTIONAL_FIELDS if name in data.files}
         except KeyError as exc:
             raise SfvError(f"{path}: not a pose track (missing array {exc})") from exc
         except (OSError, ValueError, zipfile.BadZipFile) as exc:
@@ -69,6 +77,7 @@ class PoseTrack:
             valid=values["valid"].astype(bool), presence=values["presence"], rotation_used=values["rotation_used"],
             filled_frames=int(values["filled_frames"]),
             keypoint_names=tuple(str(n) for n in values["keypoint_names"]),
+            **optional,
         )
         track.check(path)
         return track
