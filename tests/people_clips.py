@@ -56,3 +56,35 @@ def two_people_clip(path: Path, frames: int = 100) -> TwoPeopleClip:
         out.append(canvas)
     gone = int(np.argmax(lefts >= WIDTH)) if (lefts >= WIDTH).any() else frames
     return TwoPeopleClip(write_clip(path, out), frames, lefts, gone)
+
+
+@dataclass(frozen=True)
+class MovingCameraClip:
+    path: Path
+    pan_px: np.ndarray   # (T,) true view motion into each frame, output pixels, + right (0 at frame 0)
+    tilt_px: np.ndarray  # (T,) + down
+    zoom: np.ndarray     # (T,) true scale from the frame before (1 at frame 0)
+
+
+def moving_camera_clip(path: Path, frames: int = 60, size: tuple[int, int] = (480, 640)) -> MovingCameraClip:
+    """A camera that pans right, tilts down and zooms in 1.3x over the static cam01 view: a crop
+    window (centre m_t, width w_t in source pixels) scaled to `size`. An output pixel is
+    x = k_t (s - m_t) + c with k_t = width / w_t, so the view moves by k_t (m_t - m_{t-1})
+    into frame t and zooms by k_t / k_{t-1}."""
+    width, height = size
+    t = np.linspace(0.0, 1.0, frames)
+    crop_w = 1000.0 - 240.0 * t
+    centre = np.stack([500.0 + 200.0 * t, 900.0 + 100.0 * t], axis=1)
+    k = width / crop_w
+    out_centre = (np.array([width, height], np.float64) - 1.0) / 2.0
+    out = []
+    for index, frame in read_frames(CAM01, 0, frames):
+        matrix = np.array([[k[index], 0.0, out_centre[0] - k[index] * centre[index, 0]],
+                           [0.0, k[index], out_centre[1] - k[index] * centre[index, 1]]])
+        blurred = cv2.GaussianBlur(frame, (0, 0), 0.5 / k[index])  # against aliasing when shrinking
+        out.append(cv2.warpAffine(blurred, matrix, (width, height), flags=cv2.INTER_LINEAR))
+    motion = np.zeros((frames, 2))
+    motion[1:] = k[1:, None] * np.diff(centre, axis=0)
+    zoom = np.ones(frames)
+    zoom[1:] = k[1:] / k[:-1]
+    return MovingCameraClip(write_clip(path, out), motion[:, 0], motion[:, 1], zoom)

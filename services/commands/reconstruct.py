@@ -24,6 +24,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--save-track", type=Path, default=None, help="also write the estimated pose track here (.npz)")
     parser.add_argument("--ray-address", default=None, help="join a Ray cluster ('auto' or host:port); local Ray when absent")
     parser.add_argument("--serial", action="store_true", help="run pose estimation and reconstruction in this process, without Ray")
+    parser.add_argument("--camera", choices=("static", "moving", "auto"), default="auto",
+                        help="static: the root path comes from image position and scale (SFV); moving: the camera "
+                             "pans/tilts/zooms, so the motion is written root-free (joint rotations, root not to be "
+                             "tracked); auto: decide from the background's motion (default)")
     add_person_arguments(parser)
     parser.set_defaults(handler=run_reconstruct)
 
@@ -48,8 +52,10 @@ def run_reconstruct(args: argparse.Namespace) -> int:
 
     from actors.motion_io import save_motion
     from services.pose import PoseTrack, estimate_video
+    from services.pose.camera_path import camera_path, decide_camera
     from services.pose.subject import crop_to_seen
     from services.pose.video import probe_video
+    from services.reconstruction.root_free import make_root_free
     from services.reconstruction.video_extras import video_extras
     from services.reconstruction import ReconstructionConfig, reconstruct_on_ray, reconstruct_track
     from services.ray_session import start_local_ray
@@ -78,6 +84,8 @@ def run_reconstruct(args: argparse.Namespace) -> int:
             if args.save_track is not None:
                 track.save(args.save_track)
         track = crop_to_seen(track, str(args.track or args.video))
+        path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
+        moving = decide_camera(args.camera, path, track.image_size[0], str(args.track or args.video))
         name = args.video.stem
         motion = reconstruct_on_ray(track, config, name) if use_ray else reconstruct_track(track, config, name)
     finally:
@@ -85,11 +93,23 @@ def run_reconstruct(args: argparse.Namespace) -> int:
             import ray
 
             ray.shutdown()
-    motion.extras.update(video_extras(track))
+    motion.extras.update(video_extras(track, path, moving))
+    if moving:
+        motion = make_root_free(motion)
     save_motion(motion, args.out)
     elapsed = time.perf_counter() - started
     flipped = int(motion.extras["label_flipped"].sum())
     print(f"{args.video}: {motion.num_frames} of {info.frame_count} frames (person {track.person_id}, from frame "
           f"{track.start_frame}, {track.filled_frames} not seen and interpolated), {flipped} left/right readings undone, "
-          f"mean reprojection error {float(motion.extras['reprojection_error_px'].mean()):.1f} px, {elapsed:.1f} s -> {args.out}")
+          f"mean reprojection error {float(motion.extras['reprojection_error_px'].mean()):.1f} px, "
+          f"{_camera_words(path, moving)}, {elapsed:.1f} s -> {args.out}")
     return 0
+
+
+def _camera_words(path, moving: bool) -> str:
+    untracked = f", background untracked in {path.untracked_frames} frames" if path is not None and path.untracked_frames else ""
+    if not moving:
+        return "static camera" + (" (camera motion not measured in this track)" if path is None else untracked)
+    travel = "" if path is None else (f" (view moved {float(abs(path.offset_px).max()):.0f} px, "
+                                      f"zoom x{float(path.total_zoom[-1]):.2f})")
+    return f"moving camera{travel}{untracked}: root-free motion, its root path is not to be tracked"

@@ -12,10 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
+from services.pose.camera_motion import CameraMotionEstimator
 from services.pose.config import PoseConfig
 from services.pose.landmarks import NUM_BODY_LANDMARKS
 from services.pose.models import PoseModelFiles
-from services.pose.people import PeopleEstimator, PersonEstimate
+from services.pose.people import PeopleEstimator, PersonEstimate, keypoint_box
 from services.pose.video import read_frames
 
 
@@ -69,24 +70,33 @@ class PeopleRows:
 
 @dataclass
 class PeopleChunk:
-    """Rows for frames first..stop-1 (first = start - warm-up); `decoded` frames of start..stop-1 were read."""
+    """Rows for frames first..stop-1 (first = start - warm-up); `decoded` frames of start..stop-1
+    were read. camera_homography (decoded, 3, 3) / camera_inliers (decoded,): each own frame's
+    camera motion from the frame before (`camera_motion.py`)."""
 
     start: int
     first: int
     decoded: int
     rows: PeopleRows
+    camera_homography: np.ndarray
+    camera_inliers: np.ndarray
 
 
 def estimate_people_chunk(video: str | Path, start: int, stop: int, files: PoseModelFiles,
                           config: PoseConfig | None = None) -> PeopleChunk:
     """Everyone in frames start..stop-1 (and the warm-up frames before); serial or a Ray task."""
     config = config or PoseConfig()
-    estimator = PeopleEstimator(files, config)
+    estimator, camera = PeopleEstimator(files, config), CameraMotionEstimator()
     first = max(0, start - config.warmup_frames)
     rows: list[tuple[int, PersonEstimate]] = []
-    decoded = 0
+    homographies, inliers = [], []
     for index, frame in read_frames(video, first, stop):
-        rows += [(index, estimate) for estimate in estimator.process(frame)]
+        estimates = estimator.process(frame)
+        rows += [(index, estimate) for estimate in estimates]
+        homography, count = camera.process(frame, [keypoint_box(e.pose) for e in estimates])
         if index >= start:
-            decoded = index - start + 1
-    return PeopleChunk(start=start, first=first, decoded=decoded, rows=PeopleRows.from_estimates(rows))
+            homographies.append(homography)
+            inliers.append(count)
+    return PeopleChunk(start=start, first=first, decoded=len(homographies), rows=PeopleRows.from_estimates(rows),
+                       camera_homography=np.array(homographies, np.float64).reshape(-1, 3, 3),
+                       camera_inliers=np.array(inliers, np.int32))

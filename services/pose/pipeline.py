@@ -59,7 +59,9 @@ def estimate_people(path: str | Path, models_dir: str | Path | None = None, use_
         raise SfvError(f"{info.path}: video has no decodable frames" + (f" in --frames {first}:{stop}" if first else ""))
     rows = relink_gaps(link_chunks(kept, config), info.fps, config)
     return PeopleTrack(fps=info.fps, image_size=(info.width, info.height), start_frame=first,
-                       frame_count=decoded, rows=rows)
+                       frame_count=decoded, rows=rows,
+                       camera_homography=np.concatenate([c.camera_homography for c in kept]),
+                       camera_inliers=np.concatenate([c.camera_inliers for c in kept]))
 
 
 def _frame_range(info: VideoInfo, frames: tuple[int, int | None] | None) -> tuple[int, int]:

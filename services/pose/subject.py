@@ -37,6 +37,8 @@ class PeopleTrack:
     start_frame: int
     frame_count: int
     rows: PeopleRows
+    camera_homography: np.ndarray  # (frame_count, 3, 3) previous -> this frame; NaN where untracked
+    camera_inliers: np.ndarray     # (frame_count,)
 
     def people(self) -> list[PersonSummary]:
         summaries = []
@@ -130,6 +132,7 @@ def subject_track(people: PeopleTrack, person: int) -> PoseTrack:
         world3d=fill_gaps(dense["world3d"], valid), valid=valid, presence=dense["presence"],
         rotation_used=dense["rotation_used"], filled_frames=int((~valid).sum()),
         start_frame=people.start_frame, person_id=person,
+        camera_homography=people.camera_homography, camera_inliers=people.camera_inliers,
     )
 
 
@@ -154,4 +157,6 @@ def crop_to_seen(track: PoseTrack, source: str) -> PoseTrack:
         confidence=track.confidence[window], world3d=track.world3d[window], valid=track.valid[window],
         presence=track.presence[window], rotation_used=track.rotation_used[window], filled_frames=missing,
         keypoint_names=track.keypoint_names, start_frame=track.start_frame + first, person_id=track.person_id,
+        camera_homography=None if track.camera_homography is None else track.camera_homography[window],
+        camera_inliers=None if track.camera_inliers is None else track.camera_inliers[window],
     )
