@@ -142,10 +142,11 @@ def _rows(entries):
 
 def test_chunks_continue_identities_on_their_shared_warmup_frames():
     config = PoseConfig(warmup_frames=2)
-    first = PeopleChunk(0, 0, 4, _rows([(f, 0, 100.0) for f in range(4)] + [(f, 1, 300.0) for f in range(4)]))
+    still = (np.repeat(np.eye(3)[None], 4, axis=0), np.zeros(4, np.int32))
+    first = PeopleChunk(0, 0, 4, _rows([(f, 0, 100.0) for f in range(4)] + [(f, 1, 300.0) for f in range(4)]), *still)
     # the next chunk's local ids are swapped, and a third person appears after the boundary
     second = PeopleChunk(4, 2, 4, _rows([(f, 0, 301.0) for f in range(2, 8)] + [(f, 1, 101.0) for f in range(2, 8)]
-                                        + [(f, 2, 500.0) for f in range(5, 8)]))
+                                        + [(f, 2, 500.0) for f in range(5, 8)]), *still)
     rows = link_chunks([first, second], config)
     assert sorted(set(rows.frame.tolist())) == list(range(8))  # warm-up rows of the second chunk dropped
     for frame in range(8):
