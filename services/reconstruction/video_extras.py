@@ -21,7 +21,8 @@ from services.reconstruction.orientation_hint import orientation_hint
 def video_extras(track, path: CameraPath | None, camera_moving: bool) -> dict[str, np.ndarray]:
     """Extras of a motion reconstructed from `track` (a `services.pose.PoseTrack`) whose camera
     moved along `path` (None: the track did not measure it)."""
-    hint, hint_confidence = orientation_hint(track.keypoints2d, track.confidence, tuple(track.keypoint_names))
+    hint, hint_confidence = orientation_hint(track.keypoints2d, track.confidence, tuple(track.keypoint_names),
+                                             tuple(track.image_size))
     extras = {
         "video_start_frame": np.array(int(track.start_frame)),
         "person_id": np.array(int(track.person_id)),
