@@ -8,6 +8,7 @@ from actors.motion import ReferenceMotion
 from services.cli import main
 from services.pose.video import read_frames
 from services.reconstruction.render import RIGHT_COLOUR, gl_context
+from services.render.contact_marks import CONTACT_COLOUR
 from services.errors import SfvError
 from tests.people_clips import A_LEFT, B_TIME_SHIFT, CAM01, STRIP, moving_camera_clip, two_people_clip
 from tests.pose2sim_truth import markers, project
@@ -74,6 +75,12 @@ def test_a_frame_range_and_render_motion_start_where_the_motion_starts(two, mode
     assert main(["render-motion", str(out), "--video", str(two.path), "--out", str(video), "--height", "240"]) == 0
     frames = [frame for _, frame in read_frames(video, 0, 100)]
     assert len(frames) == 30
+    contacts, probability = motion.extras["contacts"], motion.extras["contact_probability"]
+    assert contacts.shape == probability.shape == (30, 2) and ((probability >= 0) & (probability <= 1)).all()
+    np.testing.assert_array_equal(contacts, probability >= 0.5)
+    # the contact discs are drawn on the feet of frames with a contact, and only there
+    yellow = [(np.abs(f[:, :320].astype(int) - CONTACT_COLOUR).sum(axis=2) < 60).sum() for f in frames]
+    assert all((count > 20) == bool(contacts[i].any()) for i, count in enumerate(yellow))
     # the keypoints drawn on the left half lie on A's strip (drawn at half scale): video frame 50 onwards
     left = frames[0][:, :320].astype(int)
     right_side = (np.abs(left - np.array(RIGHT_COLOUR)).sum(axis=2) < 60)

@@ -93,7 +93,7 @@ def run_reconstruct(args: argparse.Namespace) -> int:
             import ray
 
             ray.shutdown()
-    motion.extras.update(video_extras(track, path, moving))
+    motion.extras.update(video_extras(track, path, moving, motion.extras.get("label_flipped")))
     if moving:
         motion = make_root_free(motion)
     save_motion(motion, args.out)

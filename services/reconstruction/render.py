@@ -22,6 +22,7 @@ from actors.humanoid import Humanoid
 from actors.motion import ReferenceMotion
 from actors.state import StateLayout
 from services.reconstruction.keypoints import JOINT_KEYPOINTS
+from services.render.contact_marks import draw_contacts
 from services.reconstruction.video_extras import video_start_frame
 
 CAMERA_EXTRAS = ("camera_rotation", "camera_position", "camera_intrinsics", "image_size", "keypoints2d", "confidence")
@@ -166,6 +167,7 @@ def render_motion_video(motion: ReferenceMotion, video: Path, out: Path, height:
                     if projected_model is not None:  # the reconstruction seen from the camera, for judging the fit
                         draw_keypoints(left, projected_model[index], np.ones(len(JOINT_KEYPOINTS)), scale,
                                        colour_override=MODEL_COLOUR, radius=2, thickness=1)
+                    draw_contacts(left, extras, index, scale, JOINT_KEYPOINTS)
                     writer.append_data(np.concatenate((left, rendered), axis=1))
                     written += 1
             if written == 0:
