@@ -194,3 +194,22 @@ def test_old_pose_track_files_load_with_the_whole_video_and_person_zero(tmp_path
     np.savez(tmp_path / "old.npz", **old)
     track = PoseTrack.load(tmp_path / "old.npz")
     assert track.start_frame == 0 and track.person_id == 0 and len(track) == frames
+
+
+def test_a_subject_lost_for_most_of_its_span_is_refused():
+    frames = 10
+    valid = np.zeros(frames, bool)
+    valid[[0, 9]] = True
+    track = PoseTrack(fps=30.0, image_size=(64, 48), keypoints2d=np.zeros((frames, 33, 2), np.float32),
+                      confidence=np.zeros((frames, 33), np.float32), world3d=np.zeros((frames, 33, 3), np.float32),
+                      valid=valid, presence=valid.astype(np.float32), rotation_used=np.zeros(frames, np.int16),
+                      filled_frames=8, person_id=3)
+    with pytest.raises(SfvError, match=r"v\.mp4: the subject \(person 3\) is lost in 8 of the 10 frames it spans"):
+        crop_to_seen(track, "v.mp4")
+    track.valid = np.zeros(frames, bool)
+    track.valid[4] = True
+    with pytest.raises(SfvError, match=r"seen in 1 frame\(s\); a motion needs at least 2"):
+        crop_to_seen(track, "v.mp4")
+    track.valid[2:8] = True  # seen in 6 of frames 2..7, lost in none: kept, cropped to them
+    cropped = crop_to_seen(track, "v.mp4")
+    assert len(cropped) == 6 and cropped.start_frame == 2 and cropped.filled_frames == 0
