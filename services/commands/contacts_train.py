@@ -10,7 +10,7 @@ from services.errors import SfvError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from services.contacts.training import TrainSettings
+    from services.contacts.settings import TrainSettings
 
     defaults = TrainSettings()
     parser = subparsers.add_parser("contacts-train", help="train the foot-contact estimator (ONNX) from mocap clips")
@@ -28,7 +28,8 @@ def run_contacts_train(args: argparse.Namespace) -> int:
 
     import torch
 
-    from services.contacts.training import TrainSettings, save_shipped, train_contact_network
+    from services.contacts.settings import TrainSettings
+    from services.contacts.training import save_shipped, train_contact_network
 
     if args.epochs < 1 or args.cameras < 1 or args.torch_threads < 1:
         raise SfvError("--epochs, --cameras and --torch-threads must be >= 1")

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from services.contacts.features import FEATURES, frame_stride, window_features
-from services.contacts.training import DIGEST_FILE, MODEL_FILE
+from services.contacts.settings import DIGEST_FILE, MODEL_FILE
 from services.errors import SfvError
 
 SHIPPED = Path(__file__).resolve().parent / "weights"
