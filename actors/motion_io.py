@@ -8,6 +8,10 @@ Formats
 - The project's own `.npz` (format 1): `format` = "sfv-motion-1", `name`, `frame_times` (T,),
   `root_pos` (T, 3), `root_rot` (T, 4 wxyz), `joint_rot` (T, 12, 4 wxyz), `joint_names` (12,),
   `loop` (bool). Any other array is kept in `ReferenceMotion.extras` and written back.
+  Optional arrays a video reconstruction adds (files without them load as before):
+  `root_free` (bool; the camera moved, so the root path is not to be tracked, see
+  `root_is_free`), `orientation_hint` / `orientation_hint_confidence` (T,), `camera_*`
+  (T,), `video_start_frame`, `person_id`.
 - BVH (`.bvh`, or any file starting with HIERARCHY) from any rig: the rig is detected from
   its joint names and the clip retargeted onto the humanoid (`actors/bvh_import.py`).
 - Names: `deepmimic:<clip>` resolves to `pybullet_data/data/motions/humanoid3d_<clip>.txt`
@@ -246,6 +250,11 @@ def save_motion(motion: ReferenceMotion, path: str | os.PathLike) -> Path:
     with atomic_output(path) as tmp, open(tmp, "wb") as f:
         np.savez_compressed(f, **arrays)
     return path
+
+
+def root_is_free(motion: ReferenceMotion) -> bool:
+    """True for motions whose root path is not to be tracked (reconstructed from a moving camera)."""
+    return bool(np.asarray(motion.extras.get("root_free", False)))
 
 
 def hinge_angles(motion: ReferenceMotion) -> np.ndarray:

@@ -6,6 +6,7 @@ import time
 from pathlib import Path
 
 from learner.errors import SfvError
+from services.commands._person_args import add_person_arguments, frame_range, person_choice
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -23,6 +24,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--save-track", type=Path, default=None, help="also write the estimated pose track here (.npz)")
     parser.add_argument("--ray-address", default=None, help="join a Ray cluster ('auto' or host:port); local Ray when absent")
     parser.add_argument("--serial", action="store_true", help="run pose estimation and reconstruction in this process, without Ray")
+    parser.add_argument("--camera", choices=("static", "moving", "auto"), default="auto",
+                        help="static: the root path comes from image position and scale (SFV); moving: the camera "
+                             "pans/tilts/zooms, so the motion is written root-free (joint rotations, root not to be "
+                             "tracked); auto: decide from the background's motion (default)")
+    add_person_arguments(parser)
     parser.set_defaults(handler=run_reconstruct)
 
 
@@ -35,6 +41,10 @@ def _check_args(args: argparse.Namespace) -> None:
         raise SfvError(f"--iterations must be >= 0, got {args.iterations}")
     if args.track is not None and args.save_track is not None:
         raise SfvError("--track and --save-track exclude each other (the track already exists)")
+    chosen = [flag for flag, value in (("--person", args.person), ("--person-at", args.person_at), ("--frames", args.frames))
+              if value is not None]
+    if args.track is not None and chosen:
+        raise SfvError(f"--track and {chosen[0]} exclude each other (the track already follows one person)")
 
 
 def run_reconstruct(args: argparse.Namespace) -> int:
@@ -42,11 +52,16 @@ def run_reconstruct(args: argparse.Namespace) -> int:
 
     from actors.motion_io import save_motion
     from services.pose import PoseTrack, estimate_video
+    from services.pose.camera_path import camera_path, decide_camera
+    from services.pose.subject import crop_to_seen
     from services.pose.video import probe_video
+    from services.reconstruction.root_free import make_root_free
+    from services.reconstruction.video_extras import video_extras
     from services.reconstruction import ReconstructionConfig, reconstruct_on_ray, reconstruct_track
     from services.ray_session import connect_ray
 
     _check_args(args)
+    choice, frames = person_choice(args), frame_range(args)
     started = time.perf_counter()
     info = probe_video(args.video)  # missing file, not a video, no frames: one-line errors before any work
     config = dataclasses.replace(ReconstructionConfig(), iterations=args.iterations)
@@ -56,9 +71,12 @@ def run_reconstruct(args: argparse.Namespace) -> int:
         if args.track is not None:
             track = PoseTrack.load(args.track)
         else:
-            track = estimate_video(args.video, models_dir=args.pose_models, use_ray=use_ray)
+            track = estimate_video(args.video, models_dir=args.pose_models, use_ray=use_ray, choice=choice, frames=frames)
             if args.save_track is not None:
                 track.save(args.save_track)
+        track = crop_to_seen(track, str(args.track or args.video))
+        path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
+        moving = decide_camera(args.camera, path, track.image_size[0], str(args.track or args.video))
         name = args.video.stem
         motion = reconstruct_on_ray(track, config, name) if use_ray else reconstruct_track(track, config, name)
     finally:
@@ -66,9 +84,23 @@ def run_reconstruct(args: argparse.Namespace) -> int:
             import ray
 
             ray.shutdown()
+    motion.extras.update(video_extras(track, path, moving, motion.extras.get("label_flipped")))
+    if moving:
+        motion = make_root_free(motion)
     save_motion(motion, args.out)
     elapsed = time.perf_counter() - started
     flipped = int(motion.extras["label_flipped"].sum())
-    print(f"{args.video}: {motion.num_frames} of {info.frame_count} frames, {flipped} left/right readings undone, "
-          f"mean reprojection error {float(motion.extras['reprojection_error_px'].mean()):.1f} px, {elapsed:.1f} s -> {args.out}")
+    print(f"{args.video}: {motion.num_frames} of {info.frame_count} frames (person {track.person_id}, from frame "
+          f"{track.start_frame}, {track.filled_frames} not seen and interpolated), {flipped} left/right readings undone, "
+          f"mean reprojection error {float(motion.extras['reprojection_error_px'].mean()):.1f} px, "
+          f"{_camera_words(path, moving)}, {elapsed:.1f} s -> {args.out}")
     return 0
+
+
+def _camera_words(path, moving: bool) -> str:
+    untracked = f", background untracked in {path.untracked_frames} frames" if path is not None and path.untracked_frames else ""
+    if not moving:
+        return "static camera" + (" (camera motion not measured in this track)" if path is None else untracked)
+    travel = "" if path is None else (f" (view moved {float(abs(path.offset_px).max()):.0f} px, "
+                                      f"zoom x{float(path.total_zoom[-1]):.2f})")
+    return f"moving camera{travel}{untracked}: root-free motion, its root path is not to be tracked"

@@ -20,8 +20,27 @@ class PoseConfig:
                 "for a candidate to count as temporally coherent"})
     coherence_window: int = field(default=5, metadata={
         "help": "how many frames back the previous answer may lie and still be used for the coherence test"})
-    warmup_frames: int = field(default=2, metadata={
-        "help": "frames decoded before a chunk's first frame so that its ROI is already tracked"})
+    warmup_frames: int = field(default=3, metadata={
+        "help": "frames decoded before a chunk's first frame so that its ROIs are already tracked; "
+                "identities are matched across the chunk boundary on these frames"})
+    new_person_score_threshold: float = field(default=0.1, metadata={
+        "help": "minimum detector score for a person no track covers yet to be tried; the landmark model's "
+                "pose presence (presence_threshold) confirms or rejects it. Lower than "
+                "detector_score_threshold because people under ~1/3 of the picture's height score 0.15-0.5"})
+    detect_interval: int = field(default=4, metadata={
+        "help": "every this many frames (and whenever nobody is tracked) the detector looks for people "
+                "no track covers yet"})
+    duplicate_iou: float = field(default=0.5, metadata={
+        "help": "overlap (IoU) of two answers' keypoint boxes above which they are the same person "
+                "(the newer track ends)"})
+    stitch_limit: float = field(default=0.15, metadata={
+        "help": "mean 2D keypoint distance, as a fraction of the ROI side, below which a track of one chunk "
+                "continues a track of the previous chunk on their shared warm-up frames"})
+    relink_gap_s: float = field(default=0.5, metadata={
+        "help": "longest gap (seconds) across which a track that ended is continued by a new one"})
+    relink_limit: float = field(default=0.3, metadata={
+        "help": "mean 2D keypoint distance, as a fraction of the ROI side, between the last answer before a "
+                "gap and the first after it for the two tracks to be one identity"})
     chunk_frames: int = field(default=50, metadata={
         "help": "frames per Ray task (also the chunking of the serial path, so both give the same answer)"})
     num_threads: int = field(default=1, metadata={

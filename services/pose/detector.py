@@ -1,5 +1,5 @@
-"""BlazePose person detector: letterboxed 224x224 input -> the best person's box and
-4 alignment keypoints in image pixels.
+"""BlazePose person detector: letterboxed 224x224 input -> every person's box and
+4 alignment keypoints in image pixels (best first).
 
 Decoding follows MediaPipe's pose detection graph: raw box/keypoint offsets are in
 input pixels relative to the anchor centre (x before y), scores are clipped logits
@@ -71,7 +71,7 @@ def weighted_nms(scores: np.ndarray, boxes: np.ndarray, keypoints: np.ndarray,
 
 
 class PoseDetector:
-    """Runs pose_detection.tflite (or an .onnx of it) and returns the best person."""
+    """Runs pose_detection.tflite (or an .onnx of it) and returns the people it finds."""
 
     def __init__(self, model_path: str | Path, score_threshold: float = 0.5, iou_threshold: float = 0.3,
                  num_threads: int = 1):
@@ -88,6 +88,11 @@ class PoseDetector:
 
     def detect(self, image_rgb: np.ndarray) -> PersonDetection | None:
         """Best person in an RGB uint8 image, or None when no score clears the threshold."""
+        detections = self.detect_all(image_rgb)
+        return detections[0] if detections else None
+
+    def detect_all(self, image_rgb: np.ndarray) -> list[PersonDetection]:
+        """Every person whose score clears the threshold, best first (after weighted NMS)."""
         height, width = image_rgb.shape[:2]
         to_input = letterbox_matrix(width, height)
         # INTER_AREA first: a straight bilinear warp from 1-2k pixels down to 224 aliases.
@@ -106,14 +111,16 @@ class PoseDetector:
         scores = 1.0 / (1.0 + np.exp(-np.clip(raw_scores.astype(np.float64), -SCORE_CLIP, SCORE_CLIP)))
         keep = scores >= self.score_threshold
         if not keep.any():
-            return None
+            return []
         boxes, keypoints = self._decode(raw_boxes[keep], self._anchors[keep])
-        score, box, points = weighted_nms(scores[keep], boxes, keypoints, self.iou_threshold)[0]
         # letterboxed input pixels -> image pixels
         inverse = cv2.invertAffineTransform(to_input)
-        points_px = points @ inverse[:, :2].T + inverse[:, 2]
-        corners_px = box.reshape(2, 2) @ inverse[:, :2].T + inverse[:, 2]
-        return PersonDetection(score=score, box=corners_px.ravel(), keypoints=points_px)
+        detections = []
+        for score, box, points in weighted_nms(scores[keep], boxes, keypoints, self.iou_threshold):
+            points_px = points @ inverse[:, :2].T + inverse[:, 2]
+            corners_px = box.reshape(2, 2) @ inverse[:, :2].T + inverse[:, 2]
+            detections.append(PersonDetection(score=score, box=corners_px.ravel(), keypoints=points_px))
+        return detections
 
     def _split_outputs(self, outputs: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         """(2254, 12) regressors and (2254,) score logits, told apart by shape."""

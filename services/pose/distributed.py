@@ -1,6 +1,7 @@
 """Running chunks of a video as Ray tasks, one core each, gathered in frame order."""
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from services.pose.config import PoseConfig
@@ -10,11 +11,12 @@ from services.ray_session import get_results, ray_session
 
 
 def run_chunks_on_ray(video: Path, ranges: list[tuple[int, int]], files: PoseModelFiles,
-                      config: PoseConfig) -> list[ChunkResult]:
-    """One `ray.remote` task per (start, stop) range. Starts a local Ray (num_cpus =
-    os.cpu_count()) when none is initialised, and shuts it down again afterwards."""
+                      config: PoseConfig, chunk_function: Callable = estimate_chunk) -> list[ChunkResult]:
+    """One `ray.remote` task of `chunk_function(video, start, stop, files, config)` per (start,
+    stop) range. Starts a local Ray (num_cpus = os.cpu_count()) when none is initialised, and
+    shuts it down again afterwards."""
     import ray
 
     with ray_session():
-        task = ray.remote(num_cpus=1, max_retries=0)(estimate_chunk)
+        task = ray.remote(num_cpus=1, max_retries=0)(chunk_function)
         return get_results([task.remote(str(video), start, stop, files, config) for start, stop in ranges])

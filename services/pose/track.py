@@ -26,6 +26,10 @@ KEYPOINT_NAMES: tuple[str, ...] = (
 )
 
 
+OPTIONAL_FIELDS = ("start_frame", "person_id")
+OPTIONAL_ARRAYS = ("camera_homography", "camera_inliers")
+
+
 @dataclass
 class PoseTrack:
     fps: float
@@ -38,6 +42,13 @@ class PoseTrack:
     rotation_used: np.ndarray    # (T,) int16 degrees the frame was turned clockwise for the kept answer
     filled_frames: int           # frames with valid=False whose landmarks were interpolated
     keypoint_names: tuple[str, ...] = KEYPOINT_NAMES
+    # Optional (files written before several people were tracked lack them): the video frame
+    # of row 0 (`--frames A:B`), and which identity of `sfv pose --people` this track follows.
+    start_frame: int = 0
+    person_id: int = 0
+    # Optional: the camera's motion into each frame from the one before (services/pose/camera_motion.py).
+    camera_homography: np.ndarray | None = None  # (T, 3, 3) previous -> this frame pixels; NaN where untracked
+    camera_inliers: np.ndarray | None = None     # (T,) background points the homography rests on
 
     def __len__(self) -> int:
         return len(self.valid)
@@ -47,7 +58,7 @@ class PoseTrack:
         path = Path(path)
         if not path.parent.is_dir():
             raise SfvError(f"{path}: directory {path.parent} does not exist")
-        arrays = {f.name: np.asarray(getattr(self, f.name)) for f in fields(self)}
+        arrays = {f.name: np.asarray(getattr(self, f.name)) for f in fields(self) if getattr(self, f.name) is not None}
         return write_atomically(path, lambda handle: np.savez_compressed(handle, **arrays))
 
     @classmethod
@@ -57,7 +68,9 @@ class PoseTrack:
             raise SfvError(f"{path}: no such pose track file")
         try:
             with np.load(path, allow_pickle=False) as data:
-                values = {f.name: data[f.name] for f in fields(cls)}
+                values = {f.name: data[f.name] for f in fields(cls) if f.name not in OPTIONAL_FIELDS + OPTIONAL_ARRAYS}
+                optional = {name: int(data[name]) for name in OPTIONAL_FIELDS if name in data.files}
+                optional.update({name: data[name] for name in OPTIONAL_ARRAYS if name in data.files})
         except KeyError as exc:
             raise SfvError(f"{path}: not a pose track (missing array {exc})") from exc
         except (OSError, ValueError, zipfile.BadZipFile) as exc:
@@ -69,6 +82,7 @@ class PoseTrack:
             valid=values["valid"].astype(bool), presence=values["presence"], rotation_used=values["rotation_used"],
             filled_frames=int(values["filled_frames"]),
             keypoint_names=tuple(str(n) for n in values["keypoint_names"]),
+            **optional,
         )
         track.check(path)
         return track
@@ -78,9 +92,13 @@ class PoseTrack:
         frames, joints = len(self.valid), len(self.keypoint_names)
         expected = {"keypoints2d": (frames, joints, 2), "confidence": (frames, joints), "world3d": (frames, joints, 3),
                     "presence": (frames,), "rotation_used": (frames,)}
+        if self.camera_homography is not None:
+            expected.update(camera_homography=(frames, 3, 3), camera_inliers=(frames,))
         for name, shape in expected.items():
-            if getattr(self, name).shape != shape:
-                raise SfvError(f"{source}: {name} has shape {getattr(self, name).shape}, expected {shape}")
+            value = getattr(self, name)
+            actual = None if value is None else value.shape
+            if actual != shape:
+                raise SfvError(f"{source}: {name} has shape {actual}, expected {shape}")
 
 
 def fill_gaps(values: np.ndarray, valid: np.ndarray) -> np.ndarray:

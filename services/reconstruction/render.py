@@ -22,6 +22,8 @@ from actors.humanoid import Humanoid
 from actors.motion import ReferenceMotion
 from actors.state import StateLayout
 from services.reconstruction.keypoints import JOINT_KEYPOINTS
+from services.render.contact_marks import draw_contacts
+from services.reconstruction.video_extras import video_start_frame
 
 CAMERA_EXTRAS = ("camera_rotation", "camera_position", "camera_intrinsics", "image_size", "keypoints2d", "confidence")
 BONES = (
@@ -140,7 +142,8 @@ def render_motion_video(motion: ReferenceMotion, video: Path, out: Path, height:
                        f"{image_size[0]}x{image_size[1]} video")
     width, height = _even(info.width * height / info.height), _even(height)
     scale = np.array([width / info.width, height / info.height])
-    frames = min(motion.num_frames, info.frame_count)
+    first = video_start_frame(extras)  # the motion may begin later in the video (its subject's first frame)
+    frames = min(motion.num_frames, info.frame_count - first)
 
     humanoid = Humanoid()
     layout = StateLayout(humanoid)
@@ -153,7 +156,8 @@ def render_motion_video(motion: ReferenceMotion, video: Path, out: Path, height:
             writer = imageio.get_writer(tmp, format="FFMPEG", fps=motion.fps, codec="libx264", pixelformat="yuv420p",
                                         macro_block_size=2, ffmpeg_log_level="error")
             with writer:
-                for index, frame in read_frames(video, 0, frames):
+                for video_index, frame in read_frames(video, first, first + frames):
+                    index = video_index - first
                     pose = motion.sample(motion.frame_times[index])
                     layout.pose_to_qpos_qvel(pose, data.qpos, data.qvel)
                     mujoco.mj_forward(humanoid.model, data)
@@ -163,6 +167,7 @@ def render_motion_video(motion: ReferenceMotion, video: Path, out: Path, height:
                     if projected_model is not None:  # the reconstruction seen from the camera, for judging the fit
                         draw_keypoints(left, projected_model[index], np.ones(len(JOINT_KEYPOINTS)), scale,
                                        colour_override=MODEL_COLOUR, radius=2, thickness=1)
+                    draw_contacts(left, extras, index, scale, JOINT_KEYPOINTS)
                     writer.append_data(np.concatenate((left, rendered), axis=1))
                     written += 1
             if written == 0:

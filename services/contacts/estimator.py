@@ -1,0 +1,65 @@
+"""Foot contacts of a video's subject from the shipped ONNX network (onnxruntime, no torch).
+
+The model file's SHA-256 is checked against `foot_contact.sha256` when it is opened: a file
+changed by hand (or half copied) is refused with the command that rebuilds it.
+"""
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import numpy as np
+
+from services.contacts.features import FEATURES, frame_stride, window_features
+from services.contacts.settings import DIGEST_FILE, MODEL_FILE
+from learner.errors import SfvError
+
+SHIPPED = Path(__file__).resolve().parent / "weights"
+CONTACT_THRESHOLD = 0.5
+RETRAIN = "sfv contacts-train --out services/contacts/weights"
+
+
+def _checked(directory: Path) -> Path:
+    model, digest_file = directory / MODEL_FILE, directory / DIGEST_FILE
+    if not model.is_file() or not digest_file.is_file():
+        raise SfvError(f"{model}: foot-contact model or its digest missing; rebuild with `{RETRAIN}`")
+    expected = digest_file.read_text().split()[0]
+    actual = hashlib.sha256(model.read_bytes()).hexdigest()
+    if actual != expected:
+        raise SfvError(f"{model}: checksum {actual[:12]}... does not match {digest_file.name} ({expected[:12]}...); "
+                       f"rebuild with `{RETRAIN}`")
+    return model
+
+
+class FootContactEstimator:
+    def __init__(self, directory: str | Path = SHIPPED):
+        import onnxruntime as ort
+
+        options = ort.SessionOptions()
+        options.intra_op_num_threads = 1
+        options.log_severity_level = 3
+        model = _checked(Path(directory))
+        self._session = ort.InferenceSession(str(model), sess_options=options, providers=["CPUExecutionProvider"])
+        self._input = self._session.get_inputs()[0].name
+        if self._session.get_inputs()[0].shape[-1] != FEATURES:
+            raise SfvError(f"{model}: expects {self._session.get_inputs()[0].shape[-1]} features, not {FEATURES}")
+
+    def estimate(self, points2d: np.ndarray, confidence: np.ndarray, fps: float) -> np.ndarray:
+        """(T, 2) contact probabilities (right, left foot) from (T, 17, 2) fit points and (T, 17) confidences."""
+        windows = window_features(points2d, confidence, frame_stride(fps))
+        (logits,) = self._session.run(None, {self._input: windows})
+        return 1.0 / (1.0 + np.exp(-logits.astype(np.float64)))
+
+
+def track_contacts(track, label_flipped: np.ndarray | None = None,
+                   estimator: FootContactEstimator | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(T, 2) probabilities and (T, 2) flags (right, left) for a `services.pose.PoseTrack`,
+    read with the left/right corrections the reconstruction made (`label_flipped`)."""
+    from services.reconstruction.keypoints import observe
+    from services.reconstruction.label_flips import undo_label_flips
+
+    observed = observe(track)
+    if label_flipped is not None:
+        observed = undo_label_flips(observed, np.asarray(label_flipped, bool))
+    probabilities = (estimator or FootContactEstimator()).estimate(observed.keypoints2d, observed.confidence, track.fps)
+    return probabilities, probabilities >= CONTACT_THRESHOLD

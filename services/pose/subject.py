@@ -1,0 +1,162 @@
+"""Everyone a video shows (`PeopleTrack`), and the one person a motion is made of.
+
+Default subject: the identity seen in the most frames; ties go to the larger one (median
+ROI side). `--person ID` names an identity as `sfv pose --people` lists it; `--person-at
+X,Y@FRAME` the identity whose 2D keypoints' box holds pixel (X, Y) in that frame (the
+nearest box centre when several do). The subject's PoseTrack has one row per frame of the
+estimated range; frames where the subject is not seen are invalid and interpolated
+(`fill_gaps`), never filled with another person's pose.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from learner.errors import SfvError
+from services.pose.people_chunk import PeopleRows
+from services.pose.track import PoseTrack, fill_gaps
+
+
+@dataclass(frozen=True)
+class PersonSummary:
+    person: int
+    frames_seen: int
+    first_frame: int
+    last_frame: int
+    size_px: float  # median ROI side
+
+
+@dataclass
+class PeopleTrack:
+    """Every identity's answers for video frames start_frame .. start_frame + frame_count - 1."""
+
+    fps: float
+    image_size: tuple[int, int]
+    start_frame: int
+    frame_count: int
+    rows: PeopleRows
+    camera_homography: np.ndarray  # (frame_count, 3, 3) previous -> this frame; NaN where untracked
+    camera_inliers: np.ndarray     # (frame_count,)
+
+    def people(self) -> list[PersonSummary]:
+        summaries = []
+        for person in np.unique(self.rows.person):
+            mine = self.rows.person == person
+            frames = self.rows.frame[mine]
+            summaries.append(PersonSummary(int(person), int(mine.sum()), int(frames.min()), int(frames.max()),
+                                           float(np.median(self.rows.roi_size[mine]))))
+        return summaries
+
+
+@dataclass(frozen=True)
+class PersonChoice:
+    """How to pick the subject: an id, a pixel at a frame, or (both None) the default."""
+
+    person: int | None = None
+    at: tuple[float, float, int] | None = None  # x, y, frame
+
+
+def parse_person_at(text: str) -> tuple[float, float, int]:
+    """'X,Y@FRAME' -> (x, y, frame); a one-line error naming the flag otherwise."""
+    match = re.fullmatch(r"\s*([-+]?\d+(?:\.\d*)?)\s*,\s*([-+]?\d+(?:\.\d*)?)\s*@\s*(\d+)\s*", text)
+    if not match:
+        raise SfvError(f"--person-at {text!r}: expected X,Y@FRAME (pixels and a frame number, e.g. 320,240@10)")
+    return float(match.group(1)), float(match.group(2)), int(match.group(3))
+
+
+def parse_frames(text: str) -> tuple[int, int | None]:
+    """'A:B' -> (A, B) (B exclusive; either may be empty: ':B', 'A:')."""
+    match = re.fullmatch(r"\s*(\d*)\s*:\s*(\d*)\s*", text)
+    if not match:
+        raise SfvError(f"--frames {text!r}: expected A:B (first frame, frame after the last; e.g. 0:120)")
+    start = int(match.group(1)) if match.group(1) else 0
+    stop = int(match.group(2)) if match.group(2) else None
+    if stop is not None and stop <= start:
+        raise SfvError(f"--frames {text!r}: the end must come after the start")
+    return start, stop
+
+
+def choose_subject(people: PeopleTrack, choice: PersonChoice, source: str) -> int:
+    summaries = people.people()
+    if not summaries:
+        raise SfvError(f"{source}: no person detected in any of {people.frame_count} frames")
+    if choice.person is not None:
+        known = [s.person for s in summaries]
+        if choice.person not in known:
+            raise SfvError(f"--person {choice.person}: no such person in {source} (ids {', '.join(map(str, known))}; "
+                           "see `sfv pose --people PREVIEW.png`)")
+        return choice.person
+    if choice.at is not None:
+        return _person_at(people, choice.at, source)
+    return max(summaries, key=lambda s: (s.frames_seen, s.size_px)).person
+
+
+def _person_at(people: PeopleTrack, at: tuple[float, float, int], source: str) -> int:
+    x, y, frame = at
+    rows = people.rows
+    here = np.flatnonzero(rows.frame == frame)
+    if frame < people.start_frame or frame >= people.start_frame + people.frame_count:
+        raise SfvError(f"--person-at {x:g},{y:g}@{frame}: frame {frame} is outside the estimated frames "
+                       f"{people.start_frame}..{people.start_frame + people.frame_count - 1}")
+    holding = []
+    for i in here:
+        low, high = rows.keypoints2d[i].min(axis=0), rows.keypoints2d[i].max(axis=0)
+        if low[0] <= x <= high[0] and low[1] <= y <= high[1]:
+            holding.append((float(np.linalg.norm((low + high) / 2 - (x, y))), int(rows.person[i])))
+    if not holding:
+        raise SfvError(f"--person-at {x:g},{y:g}@{frame}: nobody in {source} covers that pixel in frame {frame} "
+                       f"({len(here)} people seen there)")
+    return min(holding)[1]
+
+
+def subject_track(people: PeopleTrack, person: int) -> PoseTrack:
+    """The subject's PoseTrack over the estimated frames (see the module docstring)."""
+    rows = people.rows.select(people.rows.person == person)
+    frames = people.frame_count
+    index = rows.frame - people.start_frame
+    joints = rows.keypoints2d.shape[1]
+    valid = np.zeros(frames, bool)
+    valid[index] = True
+    dense = {
+        "keypoints2d": np.zeros((frames, joints, 2), np.float32), "confidence": np.zeros((frames, joints), np.float32),
+        "world3d": np.zeros((frames, joints, 3), np.float32), "presence": np.zeros(frames, np.float32),
+        "rotation_used": np.zeros(frames, np.int16),
+    }
+    for name, array in dense.items():
+        array[index] = getattr(rows, name)
+    return PoseTrack(
+        fps=people.fps, image_size=people.image_size,
+        keypoints2d=fill_gaps(dense["keypoints2d"], valid), confidence=dense["confidence"],
+        world3d=fill_gaps(dense["world3d"], valid), valid=valid, presence=dense["presence"],
+        rotation_used=dense["rotation_used"], filled_frames=int((~valid).sum()),
+        start_frame=people.start_frame, person_id=person,
+        camera_homography=people.camera_homography, camera_inliers=people.camera_inliers,
+    )
+
+
+MAX_MISSING_FRACTION = 0.5  # of the subject's span; more missing and the motion would be mostly guessed
+
+
+def crop_to_seen(track: PoseTrack, source: str) -> PoseTrack:
+    """The track from the subject's first to last seen frame (a motion covers only those; the
+    gaps inside stay interpolated). An SfvError when the subject is missing from most of it."""
+    seen = np.flatnonzero(track.valid)
+    if seen.size < 2:
+        raise SfvError(f"{source}: the subject (person {track.person_id}) is seen in {seen.size} frame(s); "
+                       "a motion needs at least 2")
+    first, stop = int(seen[0]), int(seen[-1]) + 1
+    missing = (stop - first) - seen.size
+    if missing > MAX_MISSING_FRACTION * (stop - first):
+        raise SfvError(f"{source}: the subject (person {track.person_id}) is lost in {missing} of the {stop - first} "
+                       f"frames it spans; choose --frames or another --person (see `sfv pose --people`)")
+    window = slice(first, stop)
+    return PoseTrack(
+        fps=track.fps, image_size=track.image_size, keypoints2d=track.keypoints2d[window],
+        confidence=track.confidence[window], world3d=track.world3d[window], valid=track.valid[window],
+        presence=track.presence[window], rotation_used=track.rotation_used[window], filled_frames=missing,
+        keypoint_names=track.keypoint_names, start_frame=track.start_frame + first, person_id=track.person_id,
+        camera_homography=None if track.camera_homography is None else track.camera_homography[window],
+        camera_inliers=None if track.camera_inliers is None else track.camera_inliers[window],
+    )

@@ -1,0 +1,50 @@
+"""Ground truth of the Pose2Sim clip: triangulated markers (.trc) projected into a camera."""
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+CLIP_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "video" / "pose2sim_balancing"
+TRC = CLIP_DIR / "S00_P00_T01_BalancingTrial_0-100.trc"
+
+
+def markers(path: Path = TRC) -> tuple[list[str], np.ndarray]:
+    """Marker names and (T, M, 3) positions in the calibration's world frame (metres, z up)."""
+    lines = path.read_text().splitlines()
+    names = [n for n in lines[3].split("\t")[2:] if n]
+    data = np.array([[float(v) for v in line.split("\t")[2:2 + 3 * len(names)]] for line in lines[5:] if line.strip()])
+    trc = data.reshape(len(data), len(names), 3)
+    return names, trc[..., [2, 0, 1]]  # the .trc axes are permuted against the calibration's world
+
+
+def project(points: np.ndarray, camera: str = "cam_01") -> np.ndarray:
+    """(..., 3) world points -> (..., 2) pixels of that camera."""
+    calibration = tomllib.loads((CLIP_DIR / "Calib_qualisys.toml").read_text())[camera]
+    flat = points.reshape(-1, 3).astype(np.float64)
+    pixels, _ = cv2.projectPoints(flat, np.array(calibration["rotation"]), np.array(calibration["translation"]),
+                                  np.array(calibration["matrix"]), np.array(calibration["distortions"]))
+    return pixels.reshape(points.shape[:-1] + (2,))
+
+
+FOOT_MARKERS = {"right": ("RHeel", "RBigToe", "RSmallToe"), "left": ("LHeel", "LBigToe", "LSmallToe")}
+MARKER_CONTACT_HEIGHT = 0.05  # metres above the foot's own lowest point in the clip
+MARKER_CONTACT_SPEED = 0.6    # metres per second, as the training labels
+
+
+def marker_contacts() -> np.ndarray:
+    """(T, 2) right, left contact flags from the filtered markers: the lowest foot marker within
+    5 cm of that foot's lowest height in the clip (the person stands on a raised plate with one
+    foot and steps down beside it with the other, so there is no one floor) and the foot's
+    markers moving slower than 0.6 m/s horizontally."""
+    filtered = CLIP_DIR / "S00_P00_T01_BalancingTrial_0-100_filt_butterworth.trc"
+    names, world = markers(filtered)
+    flags = []
+    for foot in ("right", "left"):
+        index = [names.index(n) for n in FOOT_MARKERS[foot]]
+        height = world[:, index, 2].min(axis=1)
+        speed = np.linalg.norm(np.gradient(world[:, index].mean(axis=1)[:, :2], 1 / 60.0, axis=0), axis=1)
+        flags.append((height < height.min() + MARKER_CONTACT_HEIGHT) & (speed < MARKER_CONTACT_SPEED))
+    return np.stack(flags, axis=1)
