@@ -7,7 +7,8 @@ from actors.motion_io import load_motion, root_is_free, save_motion
 from actors.motion import ReferenceMotion
 from services.cli import main
 from services.pose.video import read_frames
-from services.reconstruction.render import RIGHT_COLOUR, gl_context
+from services.render.keypoint_overlay import RIGHT_COLOUR
+from services.render.offscreen import gl_context
 from services.render.contact_marks import CONTACT_COLOUR
 from learner.errors import SfvError
 from tests.people_clips import A_LEFT, B_TIME_SHIFT, CAM01, STRIP, moving_camera_clip, two_people_clip

@@ -16,7 +16,7 @@ from actors.motion_io import load_motion, save_motion
 from services.cli import main
 from learner.errors import SfvError
 from services.pose.video import read_frames
-from services.reconstruction.render import gl_context
+from services.render.offscreen import gl_context
 from services.reconstruction.synthetic import make_clip
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"

@@ -26,7 +26,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run_render_motion(args: argparse.Namespace) -> int:
     from actors.motion_io import load_motion
-    from services.reconstruction.render import render_motion_video
+    from services.render.motion_video import render_motion_video
 
     if args.out.suffix.lower() != ".mp4":
         raise SfvError(f"{args.out}: output must be an .mp4 file")

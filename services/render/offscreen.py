@@ -15,8 +15,9 @@ import numpy as np
 from learner.errors import SfvError
 
 
-def gl_context_class():
-    """The GLContext class for `MUJOCO_GL` (osmesa when unset: headless, works everywhere)."""
+def gl_context(width: int, height: int):
+    """A GL context for off-screen rendering from `MUJOCO_GL` (osmesa when unset: headless, works
+    everywhere; egl on a GPU host); any backend failure is a one-line SfvError."""
     backend = os.environ.get("MUJOCO_GL", "").strip().lower() or "osmesa"
     try:
         if backend == "osmesa":
@@ -25,9 +26,10 @@ def gl_context_class():
             from mujoco.egl import GLContext
         else:
             from mujoco.glfw import GLContext
-    except (ImportError, OSError) as exc:
-        raise SfvError(f"MUJOCO_GL={backend}: OpenGL backend unavailable ({exc}); install libosmesa6 or set MUJOCO_GL=egl") from None
-    return GLContext
+        return GLContext(width, height)
+    except Exception as exc:  # noqa: BLE001  (any backend failure means: cannot render here)
+        raise SfvError(f"MuJoCo cannot render off-screen with MUJOCO_GL={backend} ({type(exc).__name__}: {exc}); "
+                       "install libosmesa6 or set MUJOCO_GL=egl") from None
 
 
 class OffscreenRenderer:
@@ -46,7 +48,7 @@ class OffscreenRenderer:
         if self.height <= 480:
             # Coarser spheres and capsules: invisible at this size, ~25 % less CPU per frame.
             model.vis.quality.numslices, model.vis.quality.numstacks = 16, 8
-        self._gl = gl_context_class()(self.width, self.height)
+        self._gl = gl_context(self.width, self.height)
         self._gl.make_current()
         self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
