@@ -33,10 +33,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from actors import quaternion as qn
-from learner.errors import SfvError
 from actors.motion import ReferenceMotion
 from actors.skeleton import JOINT_NAMES, LINKS, NUM_JOINTS
 from learner.atomic_io import atomic_write_bytes
+from learner.errors import SfvError
 
 UNITS = {"cm": 100.0, "m": 1.0}
 ROTATION_CHANNELS = ("Zrotation", "Xrotation", "Yrotation")

@@ -13,11 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from actors.bvh import UNITS, Bvh, bvh_to_motion, humanoid_bvh_joints, read_bvh
-from actors.motion import MotionFormatError
-from learner.errors import SfvError
-from actors.motion import ReferenceMotion
+from actors.motion import MotionFormatError, ReferenceMotion
 from actors.retarget import RetargetOptions, is_loop, retarget
 from actors.rigs import resolve_rig
+from learner.errors import SfvError
 
 
 def own_export_units(bvh: Bvh) -> str | None:

@@ -23,8 +23,8 @@ from actors.falls import FallDetector
 from actors.features import FeatureExtractor, RewardFeatures, observation_dim, update_kinematics
 from actors.humanoid import Humanoid, PhysicsConfig
 from actors.motion import ReferenceMotion
-from actors.reference_track import ReferenceTrack
 from actors.reference_obs import ReferenceObservation
+from actors.reference_track import ReferenceTrack
 from actors.reward import NUM_TERMS, ImitationReward, RewardConfig
 from actors.root_sync import RootSync
 from actors.state import StateLayout

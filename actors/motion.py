@@ -18,7 +18,6 @@ from actors.skeleton import NUM_JOINTS
 from learner.errors import SfvError
 
 
-
 class MotionFormatError(SfvError, ValueError):
     """A motion file is malformed; the message names the file and the fault (any format)."""
 

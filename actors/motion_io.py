@@ -29,9 +29,9 @@ from pathlib import Path
 import numpy as np
 
 from actors import quaternion as qn
-from learner.atomic_io import atomic_output
 from actors.motion import MotionFormatError, ReferenceMotion
 from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, JOINT_NAMES, NUM_JOINTS, revolute_angle
+from learner.atomic_io import atomic_output
 
 DEEPMIMIC_COLUMNS = 1 + 3 + 4 + int(4 * JOINT_IS_SPHERICAL.sum() + (~JOINT_IS_SPHERICAL).sum())  # 44
 NPZ_FORMAT = "sfv-motion-1"

@@ -59,7 +59,6 @@ from actors import quaternion as qn
 from actors.bvh import Bvh, end_site_yup
 from actors.bvh_pose import bvh_forward_kinematics, rest_positions, rest_tip
 from actors.bvh_units import AXES, UNIT_METRES
-from learner.errors import SfvError
 from actors.foot_contact import (
     LOW_QUANTILE,
     penetration_depth,
@@ -82,6 +81,7 @@ from actors.skeleton import (
     revolute_angle,
     yup_to_zup,
 )
+from learner.errors import SfvError
 
 HUMAN_HEIGHT_M = 1.5  # ankle to head joint of an adult; only used to tell the units apart
 LIMB_TIPS = {

@@ -24,8 +24,8 @@ import numpy as np
 from actors.imitation_env import EnvConfig
 from actors.initial_states import BufferedStarts, InitialStates, ReferenceStarts
 from actors.motion import ReferenceMotion
-from learner.policy import NumpyPolicy
 from actors.vector_env import VectorImitationEnv
+from learner.policy import NumpyPolicy
 
 log = logging.getLogger(__name__)
 

@@ -21,10 +21,8 @@ import numpy as np
 
 from actors import quaternion as qn
 from actors.humanoid import Humanoid
-from actors.skeleton import revolute_angle
 from actors.motion import MotionPose
-from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, NUM_JOINTS
-
+from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, NUM_JOINTS, revolute_angle
 
 STATE_SPACES = ("rotvec", "qpos")
 

@@ -16,8 +16,8 @@ from actors.humanoid import Humanoid
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.initial_states import BufferedStarts
 from actors.motion import ReferenceMotion
-from actors.reference_track import ReferenceTrack
 from actors.reference_obs import ReferenceObservation
+from actors.reference_track import ReferenceTrack
 from actors.reward import NUM_TERMS
 from actors.root_sync import RootSync
 

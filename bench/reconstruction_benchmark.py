@@ -28,12 +28,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without installing
 
+from learner.atomic_io import atomic_write_json  # noqa: E402
 from services.pose import PoseTrack, estimate_video  # noqa: E402
 from services.reconstruction import JOINT_KEYPOINTS, ReconstructionConfig, reconstruct_track  # noqa: E402
 from services.reconstruction.keypoints import observe  # noqa: E402
 from services.reconstruction.label_flips import undo_label_flips  # noqa: E402
 from services.reconstruction.metrics import acceleration_error, centre_on, evaluate  # noqa: E402
-from learner.atomic_io import atomic_write_json  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 CLIP_DIR = Path("data") / "video" / "pose2sim_balancing"

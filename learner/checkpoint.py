@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from learner.errors import SfvError
 from learner.atomic_io import atomic_write_bytes
+from learner.errors import SfvError
 
 CHECKPOINT_FORMAT = "sfv-checkpoint"
 CHECKPOINT_VERSION = 1

@@ -19,9 +19,9 @@ import numpy as np
 import onnx
 from onnx import TensorProto, helper, numpy_helper
 
+from learner.atomic_io import atomic_write_bytes
 from learner.errors import SfvError
 from learner.policy import diagonal_gaussian_logp, gaussian_log_normaliser, policy_layers
-from learner.atomic_io import atomic_write_bytes
 
 OPSET = 17
 # onnxruntime lags onnx's newest IR version; 8 is what opset 17 needs and any recent runtime reads.

@@ -31,9 +31,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from learner.errors import SfvError
 from learner.config import PPOConfig
-from learner.errors import BatchFormatError, NonFiniteError
+from learner.errors import BatchFormatError, NonFiniteError, SfvError
 from learner.networks import ObservationNormalizer, PolicyNetwork, ValueNetwork, linear_layers
 from learner.returns import gae_advantages, td_lambda_returns
 

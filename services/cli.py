@@ -12,8 +12,8 @@ import importlib
 import pkgutil
 import sys
 
-from services import commands
 from learner.errors import SfvError
+from services import commands
 
 
 def build_parser() -> argparse.ArgumentParser:

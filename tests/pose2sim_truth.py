@@ -1,11 +1,11 @@
 """Ground truth of the Pose2Sim clip: triangulated markers (.trc) projected into a camera."""
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 
 import cv2
 import numpy as np
+import tomllib
 
 CLIP_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "video" / "pose2sim_balancing"
 TRC = CLIP_DIR / "S00_P00_T01_BalancingTrial_0-100.trc"

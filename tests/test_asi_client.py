@@ -6,13 +6,13 @@ from concurrent import futures
 import grpc
 import numpy as np
 import pytest
-from tests.asi_helpers import D, K, reference_clip
 
 from actors.asi_client import ASIClient
 from learner.errors import SfvError
 from proto import asi_pb2
 from services.asi.server import serve
 from services.asi.store import InMemoryStore
+from tests.asi_helpers import D, K, reference_clip
 
 pytestmark = pytest.mark.integration
 

@@ -4,11 +4,11 @@ import sys
 
 import numpy as np
 import pytest
-from tests.asi_helpers import K, REPO_ROOT, ServerProcess, reference_clip
-from tests.redis_fixture import free_port
 
 from actors.asi_client import ASIClient
 from learner.errors import SfvError
+from tests.asi_helpers import REPO_ROOT, K, ServerProcess, reference_clip
+from tests.redis_fixture import free_port
 
 pytestmark = pytest.mark.integration
 

@@ -2,8 +2,7 @@
 import numpy as np
 import pytest
 
-from services.asi.distribution import (InitialStateDistribution, UpdateConfig, component_baseline,
-                                       evenly_spaced_phases, nearest_frames)
+from services.asi.distribution import InitialStateDistribution, UpdateConfig, component_baseline, evenly_spaced_phases, nearest_frames
 
 # Hand-computed case: D = 2, k = 2, N = 3 episodes.
 #   component 0: mu = (0, 0), sigma = (1, 2);  component 1: mu = (1, 2), sigma = (0.5, 1)

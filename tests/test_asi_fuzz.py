@@ -7,10 +7,10 @@ out-of-range enums. Health must stay SERVING and the server's RSS must stay boun
 import grpc
 import numpy as np
 import pytest
-from tests.asi_helpers import D, K, ServerProcess, create_request, report_request
 from grpc_health.v1 import health_pb2, health_pb2_grpc
 
 from proto import asi_pb2
+from tests.asi_helpers import D, K, ServerProcess, create_request, report_request
 
 pytestmark = pytest.mark.integration
 

@@ -4,7 +4,6 @@ import subprocess
 import grpc
 import numpy as np
 import pytest
-from tests.asi_helpers import D, FRAMES, K, create_request, reference_clip, report_request
 from grpc_health.v1 import health_pb2, health_pb2_grpc
 
 from actors.asi_client import ASIClient
@@ -13,6 +12,7 @@ from proto import asi_pb2, asi_pb2_grpc
 from services.asi.distribution import InitialStateDistribution, UpdateConfig
 from services.asi.server import SERVICE_NAME, EmbeddedASIServer, serve
 from services.asi.store import InMemoryStore
+from tests.asi_helpers import FRAMES, D, K, create_request, reference_clip, report_request
 
 pytestmark = pytest.mark.integration
 INVALID, NOT_FOUND = grpc.StatusCode.INVALID_ARGUMENT, grpc.StatusCode.NOT_FOUND

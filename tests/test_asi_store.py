@@ -5,11 +5,11 @@ import time
 
 import numpy as np
 import pytest
-from tests.redis_fixture import redis_server_with_password  # noqa: F401  (fixture)
 
 from learner.errors import SfvError
 from services.asi.distribution import InitialStateDistribution, UpdateConfig, evenly_spaced_phases
 from services.asi.store import EpisodeBatch, InMemoryStore, JobSpec
+from tests.redis_fixture import redis_server_with_password  # noqa: F401  (fixture)
 
 K, D, FRAMES = 3, 4, 12
 

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
+from services.training.config import TrainConfig
 from services.training.driver import Trainer
 from services.training.run_dir import read_metrics
-from services.training.config import TrainConfig
 
 SCRIPT = Path(__file__).resolve().parents[1] / "bench" / "scaling.py"
 

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 from actors import quaternion as qn
-from learner.errors import SfvError
+from actors.bvh import load_bvh_motion, motion_to_bvh_text, read_bvh, write_bvh
 from actors.kinematics import forward_kinematics
 from actors.motion import ReferenceMotion
 from actors.motion_io import load_motion
 from actors.skeleton import JOINT_NAMES, LINK_NAMES, LINKS
-from actors.bvh import load_bvh_motion, motion_to_bvh_text, read_bvh, write_bvh
+from learner.errors import SfvError
 
 pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")
 

@@ -9,9 +9,9 @@ import pytest
 import torch
 
 from actors import quaternion as qn
-from learner.errors import SfvError
 from actors.imitation_env import ImitationEnv
 from actors.motion_io import load_motion
+from learner.errors import SfvError
 from services.cli import main
 from services.completion.image_panel import draw_image_panel, panel_width
 from services.completion.initial_state import initial_state, lift_out_of_floor, target_qpos

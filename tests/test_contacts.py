@@ -5,13 +5,13 @@ import shutil
 import numpy as np
 import pytest
 
+from learner.errors import SfvError
 from services.contacts.estimator import SHIPPED, FootContactEstimator, track_contacts
 from services.contacts.features import FEATURES, WINDOW, frame_stride, window_features
 from services.contacts.network import HIDDEN, contact_network
-from services.contacts.synthetic_data import blazepose_like, make_dataset, play_clip, random_camera_view
 from services.contacts.settings import DIGEST_FILE, MODEL_FILE, REPORT_FILE, TrainSettings
+from services.contacts.synthetic_data import blazepose_like, make_dataset, play_clip, random_camera_view
 from services.contacts.training import save_shipped, train_contact_network
-from learner.errors import SfvError
 
 pytest.importorskip("pybullet_data", reason="the training clips come with pybullet_data")
 

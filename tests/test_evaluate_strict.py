@@ -18,7 +18,14 @@ from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.motion import ReferenceMotion
 from actors.skeleton import JOINT_IS_SPHERICAL, JOINT_NAMES, LINK_NAMES
 from services.cli import main
-from services.training.evaluation import DEFAULT_EPISODES, PUSH_RECOVERY_S, TrainingEvaluator, evaluate_policy, make_eval_env, tracking_errors
+from services.training.evaluation import (
+    DEFAULT_EPISODES,
+    PUSH_RECOVERY_S,
+    TrainingEvaluator,
+    evaluate_policy,
+    make_eval_env,
+    tracking_errors,
+)
 
 STAND_HEIGHT = 0.885  # root height at which the rest pose's feet just touch the floor
 REVOLUTE_NAMES = [n for n, s in zip(JOINT_NAMES, JOINT_IS_SPHERICAL) if not s]
@@ -273,8 +280,8 @@ def stand_run(tmp_path_factory):
     from actors.motion_io import save_motion
     from learner.checkpoint import checkpoint_path, save_checkpoint
     from learner.ppo import PPOLearner
-    from services.training.run_dir import CONFIG_FILE
     from services.training.config import TrainConfig
+    from services.training.run_dir import CONFIG_FILE
 
     root = tmp_path_factory.mktemp("evalrun")
     motion = save_motion(stand_motion(), root / "stand.npz")
@@ -336,9 +343,9 @@ def test_bad_flag_values_are_one_line_errors(argv, flag, tmp_path, capsys):
 # ------------------------------------------------------------------------------ training
 def test_training_evaluates_when_the_sample_count_crosses_eval_every_and_at_the_end(tmp_path):
     from actors.motion_io import save_motion
-    from services.training.run_dir import read_metrics
     from services.training.config import TrainConfig
     from services.training.driver import Trainer
+    from services.training.run_dir import read_metrics
 
     motion = save_motion(stand_motion(), tmp_path / "stand.npz")
     config = TrainConfig(motion=str(motion), out=str(tmp_path / "run"), workers=1, envs_per_worker=4, init="rsi",

@@ -22,8 +22,8 @@ from learner.checkpoint import checkpoint_path, save_checkpoint
 from learner.onnx_export import OnnxPolicy
 from learner.ppo import PPOLearner
 from services.cli import main
-from services.training.run_dir import CONFIG_FILE, METRICS_FILE
 from services.training.config import TrainConfig
+from services.training.run_dir import CONFIG_FILE, METRICS_FILE
 
 OBS_DIM = observation_dim(len(EnvConfig().reference_obs_steps))  # the default env's observation
 

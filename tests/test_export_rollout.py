@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from actors import quaternion as qn
+from actors.bvh import load_bvh_motion
 from actors.motion_io import load_motion
 from services.cli import main
 from services.training.evaluation import evaluate_policy
-from actors.bvh import load_bvh_motion
 from services.training.policy_source import load_policy_source
 from tests.test_export_onnx import make_tiny_run
 

@@ -14,18 +14,18 @@ import numpy as np
 import pytest
 
 from actors.asi_client import ASIClient
-from learner.errors import SfvError
 from actors.features import observation_dim
 from actors.imitation_env import EnvConfig
 from actors.motion_io import load_motion
 from actors.rollout_worker import RolloutWorker, WorkerSpec
 from learner.checkpoint import latest_checkpoint, load_checkpoint
 from learner.config import PPOConfig
+from learner.errors import SfvError
 from learner.ppo import PPOLearner
 from services.cli import main
-from services.training.run_dir import CONFIG_FILE, checkpoint_files
 from services.training.config import TrainConfig
 from services.training.driver import Trainer
+from services.training.run_dir import CONFIG_FILE, checkpoint_files
 from tests.asi_helpers import ServerProcess
 from tests.redis_fixture import free_port
 from tests.test_faults_support import TINY_RUN, TrainProcess, wait_for

@@ -11,8 +11,8 @@ import pytest
 from actors.rollout_worker import RolloutWorker
 from learner.checkpoint import latest_checkpoint, load_checkpoint
 from services.cli import main
-from services.training.run_dir import checkpoint_files, read_metrics
 from services.training.driver import Trainer
+from services.training.run_dir import checkpoint_files, read_metrics
 from tests.test_faults_support import TINY_RUN
 
 pytestmark = pytest.mark.integration

@@ -18,9 +18,9 @@ import pytest
 import torch
 
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint
-from services.training.run_dir import CONFIG_FILE, read_metrics
 from services.training.config import TrainConfig
 from services.training.driver import Trainer
+from services.training.run_dir import CONFIG_FILE, read_metrics
 from tests.test_faults_support import TINY_RUN, TrainProcess
 
 pytestmark = pytest.mark.integration

@@ -5,13 +5,13 @@ import pytest
 import torch
 
 from actors import quaternion as qn
-from services.reconstruction import quaternion_torch as qt
 from actors.humanoid import Humanoid
 from actors.kinematics import forward_kinematics, revolute_angle
-from services.reconstruction.kinematics_torch import forward_kinematics_torch, joint_quats_from_params_torch
 from actors.motion import MotionPose
 from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, NUM_JOINTS, NUM_LINKS, REVOLUTE_JOINTS, SPHERICAL_JOINTS
 from actors.state import StateLayout
+from services.reconstruction import quaternion_torch as qt
+from services.reconstruction.kinematics_torch import forward_kinematics_torch, joint_quats_from_params_torch
 
 N_POSES = 20
 

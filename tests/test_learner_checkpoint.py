@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 import torch
 
-from learner.errors import SfvError
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
 from learner.config import PPOConfig
+from learner.errors import SfvError
 from learner.ppo import PPOLearner
 from tests.learner_helpers import behaviour_rollout
 

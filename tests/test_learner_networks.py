@@ -58,7 +58,7 @@ def test_init_is_reproducible_and_policy_mean_starts_near_zero():
         generator = torch.Generator().manual_seed(seed)
         return PolicyNetwork(10, 4, (64, 32), 0.1, generator), ValueNetwork(10, (64, 32), generator)
 
-    (policy_a, value_a), (policy_b, value_b), (policy_c, _) = build(7), build(7), build(8)
+    (policy_a, value_a), (policy_b, _value_b), (policy_c, _) = build(7), build(7), build(8)
     for left, right in zip(list(policy_a.state_dict().values()), list(policy_b.state_dict().values())):
         assert torch.equal(left, right)
     assert not torch.equal(policy_a.mean_net[0].weight, policy_c.mean_net[0].weight)
@@ -69,8 +69,8 @@ def test_init_is_reproducible_and_policy_mean_starts_near_zero():
 
 @pytest.mark.parametrize("bad", [0.0, -1.0])
 def test_config_rejects_non_positive_std(bad):
-    from learner.errors import SfvError
     from learner.config import PPOConfig
+    from learner.errors import SfvError
 
     with pytest.raises(SfvError, match="action_std"):
         PPOConfig(action_std=bad)

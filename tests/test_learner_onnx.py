@@ -8,8 +8,8 @@ import onnx
 import pytest
 import torch
 
-from learner.errors import SfvError
 from learner.config import PPOConfig
+from learner.errors import SfvError
 from learner.onnx_export import OnnxPolicy, export_policy_onnx
 from learner.ppo import PPOLearner
 

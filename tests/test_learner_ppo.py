@@ -4,10 +4,9 @@ import numpy as np
 import pytest
 import torch
 
-from learner.errors import SfvError
-from learner.policy import NumpyPolicy
 from learner.config import PPOConfig
-from learner.errors import BatchFormatError, NonFiniteError
+from learner.errors import BatchFormatError, NonFiniteError, SfvError
+from learner.policy import NumpyPolicy
 from learner.ppo import PPOLearner, clipped_surrogate_loss
 
 CLEANRL_METRICS = (

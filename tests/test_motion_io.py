@@ -9,9 +9,8 @@ import numpy as np
 import pytest
 
 from actors import quaternion as qn
-from actors.motion import MotionFormatError
 from actors.humanoid import Humanoid
-from actors.motion import ReferenceMotion
+from actors.motion import MotionFormatError, ReferenceMotion
 from actors.motion_io import DEEPMIMIC_CLIPS, DEEPMIMIC_COLUMNS, load_motion, save_motion
 from actors.skeleton import JOINT_IS_SPHERICAL, NUM_JOINTS, yup_to_zup
 from actors.state import StateLayout

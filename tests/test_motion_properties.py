@@ -10,13 +10,13 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from actors.motion import MotionFormatError
 from actors.humanoid import Humanoid
 from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.motion import ReferenceMotion
+from actors.motion import MotionFormatError, ReferenceMotion
 from actors.motion_io import DEEPMIMIC_COLUMNS, load_motion
 from actors.reward import RewardConfig
 from actors.skeleton import NUM_JOINTS
+
 
 @pytest.fixture(scope="module", autouse=True)
 def in_scratch_dir(tmp_path_factory):

@@ -5,9 +5,9 @@ import pytest
 import torch
 from torch.distributions import Normal
 
+from learner.config import PPOConfig
 from learner.errors import SfvError
 from learner.policy import NumpyPolicy
-from learner.config import PPOConfig
 from learner.ppo import PPOLearner
 
 OBS_DIM, ACT_DIM = 197, 36

@@ -9,19 +9,17 @@ import cv2
 import numpy as np
 import pytest
 
-from tests.video_helpers import write_clip
-
-from services.pose.models import DETECTOR_FILE, LANDMARK_FILE
-
-from services.cli import main
 from learner.errors import SfvError
+from services.cli import main
 from services.pose import PoseConfig, PoseTrack, estimate_video, resolve_model_files
 from services.pose.detector import PoseDetector
 from services.pose.estimator import estimate_chunk, rotate_frame
 from services.pose.landmarks import LandmarkModel
+from services.pose.models import DETECTOR_FILE, LANDMARK_FILE
 from services.pose.openpose import load_openpose_frame, matched_joint_errors
 from services.pose.roi import roi_from_alignment_points
 from services.pose.video import read_frames
+from tests.video_helpers import write_clip
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 CLIP = SHARED / "data" / "video" / "pose2sim_balancing"

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from services.cli import main
 from learner.errors import SfvError
+from services.cli import main
 from services.pose import models
 from services.pose.models import (
     DETECTOR_FILE,

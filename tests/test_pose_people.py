@@ -6,8 +6,8 @@ The videos are built from the real Pose2Sim footage (tests/people_clips.py) and 
 import numpy as np
 import pytest
 
-from services.cli import main
 from learner.errors import SfvError
+from services.cli import main
 from services.pose import PoseConfig, PoseTrack
 from services.pose.identity import link_chunks, relink_gaps
 from services.pose.people_chunk import PeopleChunk, PeopleRows
@@ -20,7 +20,7 @@ from services.pose.subject import (
     parse_person_at,
     subject_track,
 )
-from tests.people_clips import A_LEFT, CAM01, STRIP, two_people_clip, write_clip, _quarter_strips
+from tests.people_clips import A_LEFT, CAM01, STRIP, _quarter_strips, two_people_clip, write_clip
 
 STRIP_WIDTH = STRIP.stop - STRIP.start
 

@@ -3,14 +3,14 @@ two people (follow the one who leaves), a frame range, and a camera that pans an
 import numpy as np
 import pytest
 
-from actors.motion_io import load_motion, root_is_free, save_motion
 from actors.motion import ReferenceMotion
+from actors.motion_io import load_motion, root_is_free, save_motion
+from learner.errors import SfvError
 from services.cli import main
 from services.pose.video import read_frames
+from services.render.contact_marks import CONTACT_COLOUR
 from services.render.keypoint_overlay import RIGHT_COLOUR
 from services.render.offscreen import gl_context
-from services.render.contact_marks import CONTACT_COLOUR
-from learner.errors import SfvError
 from tests.people_clips import A_LEFT, B_TIME_SHIFT, CAM01, STRIP, moving_camera_clip, two_people_clip
 from tests.pose2sim_truth import markers, project
 

@@ -6,11 +6,11 @@ import pytest
 import torch
 
 from actors import quaternion as qn
-from learner.errors import SfvError
 from actors.imitation_env import ImitationEnv
 from actors.kinematics import revolute_angle
 from actors.motion_io import load_motion, save_motion
 from actors.skeleton import JOINT_IS_SPHERICAL
+from learner.errors import SfvError
 from services.reconstruction import JOINT_KEYPOINTS, ReconstructionConfig, reconstruct_on_ray, reconstruct_track
 from services.reconstruction.body import REVOLUTE_LIMITS, SPHERICAL_LIMITS, body_points
 from services.reconstruction.keypoints import observe

@@ -10,14 +10,13 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from tests.video_helpers import write_clip
-
 from actors.motion_io import load_motion, save_motion
-from services.cli import main
 from learner.errors import SfvError
+from services.cli import main
 from services.pose.video import read_frames
-from services.render.offscreen import gl_context
 from services.reconstruction.synthetic import make_clip
+from services.render.offscreen import gl_context
+from tests.video_helpers import write_clip
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 CLIP = SHARED / "data" / "video" / "pose2sim_balancing" / "cam01.mp4"

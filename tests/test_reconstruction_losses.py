@@ -6,7 +6,6 @@ import numpy as np
 import torch
 
 from actors import quaternion as qn
-from services.reconstruction.kinematics_torch import forward_kinematics_torch, joint_quats_from_params_torch
 from services.reconstruction.batched_kinematics import link_frames, quat_to_matrix
 from services.reconstruction.body import REVOLUTE_LIMITS, SPHERICAL_LIMITS, PoseParams, body_points
 from services.reconstruction.camera import (
@@ -17,6 +16,7 @@ from services.reconstruction.camera import (
 )
 from services.reconstruction.initial_fit import fit_poses_to_points
 from services.reconstruction.keypoints import NUM_FIT, NUM_JOINT_KEYPOINTS, fit_index, observe
+from services.reconstruction.kinematics_torch import forward_kinematics_torch, joint_quats_from_params_torch
 from services.reconstruction.label_flips import find_label_flips, mirrored_reading, undo_label_flips
 from services.reconstruction.losses import (
     ground_penetration,

@@ -7,11 +7,11 @@ import pytest
 
 from learner.errors import SfvError
 from services.cli import main
-from services.training.evaluation import evaluate_policy
-from services.training.policy_source import load_policy_source
 from services.export.rollout import episode_steps
 from services.render.movie import RenderConfig, render_policy
 from services.render.pushes import PushConfig, PushSchedule, apply_push
+from services.training.evaluation import evaluate_policy
+from services.training.policy_source import load_policy_source
 from tests.test_export_onnx import make_tiny_run
 
 pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import pytest
 
-from learner.errors import SfvError
 from actors.rigs import detect_rig, load_rig_map, resolve_rig
+from learner.errors import SfvError
 
 SIDES = (("Left", "l"), ("Right", "r"))
 CGSPEED_CMU = ["hip", "abdomen", "chest", "neck", "head", "leftEye", "rightEye"] + [

@@ -16,12 +16,12 @@ import pytest
 import torch
 
 from actors.asi_client import ASIClient
-from learner.errors import SfvError
 from learner.checkpoint import load_checkpoint
+from learner.errors import SfvError
 from services.cli import main
-from services.training.run_dir import checkpoint_files, read_metrics
 from services.training.config import TrainConfig
 from services.training.driver import Trainer
+from services.training.run_dir import checkpoint_files, read_metrics
 from tests.asi_helpers import ServerProcess
 from tests.redis_fixture import redis_server_with_password  # noqa: F401  (fixture)
 from tests.test_faults_support import REPO, TINY_RUN, TrainProcess, clean_env

@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 
 from learner.checkpoint import latest_checkpoint, load_checkpoint
-from services.training.run_dir import read_metrics
 from services.training.config import TrainConfig
 from services.training.driver import Trainer
+from services.training.run_dir import read_metrics
 
 pytestmark = pytest.mark.integration
 

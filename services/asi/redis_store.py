@@ -29,8 +29,7 @@ from redis.retry import Retry
 
 from learner.errors import SfvError
 from services.asi.distribution import UpdateConfig
-from services.asi.store import (ASIStore, EpisodeBatch, JobParams, JobSpec, ReportOutcome, StoreUnavailable,
-                                TooManyJobs, gradient_step)
+from services.asi.store import ASIStore, EpisodeBatch, JobParams, JobSpec, ReportOutcome, StoreUnavailable, TooManyJobs, gradient_step
 
 log = logging.getLogger(__name__)
 

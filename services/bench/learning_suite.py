@@ -324,9 +324,9 @@ def read_curve(run_dir: Path) -> dict:
 def samples_to_threshold(curve: dict, final_samples: int, final_nr, threshold: float) -> tuple[int | None, str]:
     """First sample count at which NR >= threshold: eval rows where there are any, else the smoothed
     training curve; the final evaluation counts as a last point either way."""
-    from services.training.curves import smooth
-
     import numpy as np
+
+    from services.training.curves import smooth
 
     if curve["eval"].get("samples"):
         points = list(zip(curve["eval"]["samples"], curve["eval"]["eval/normalized_return"]))
@@ -380,9 +380,9 @@ def run_grid(config: LearningConfig, grid: list[Cell], doc: dict, command: str |
 
 
 def _run_cell(config: LearningConfig, cell: Cell, previous: dict | None, doc: dict, info: dict, log) -> dict:
+    from services.training.driver import Trainer
     from services.training.evaluation import evaluate_run
     from services.training.run_dir import checkpoint_files
-    from services.training.driver import Trainer
 
     run_dir = run_dir_of(config, cell)
     train = train_config(config, cell)

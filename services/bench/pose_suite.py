@@ -12,10 +12,10 @@ import importlib
 import time
 from pathlib import Path
 
+from learner.errors import SfvError
 from services.bench.config import BenchConfig
 from services.bench.measure import Summary, interleaved
 from services.bench.result import SuiteResult
-from learner.errors import SfvError
 
 SHARED = Path(__file__).resolve().parents[2].parent / "shared"
 DEFAULT_VIDEO = SHARED / "data" / "video" / "pose2sim_balancing" / "cam01.mp4"

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from learner.errors import SfvError
 
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     from services.bench.config import SUITES, BenchConfig
     from services.bench.learning_suite import add_arguments as add_learning_arguments

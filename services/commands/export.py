@@ -59,10 +59,10 @@ def _check_args(args) -> None:
 def export_rollouts(args) -> list[dict]:
     from threadpoolctl import threadpool_limits
 
-    from actors.motion_io import save_motion
     from actors.bvh import write_bvh
-    from services.training.policy_source import load_policy_source
+    from actors.motion_io import save_motion
     from services.export.rollout import record_episode
+    from services.training.policy_source import load_policy_source
 
     source = load_policy_source(args.run, args.policy_onnx)
     env = source.make_env()

@@ -36,14 +36,14 @@ def run(args) -> int:
 
     import ray
 
-    from learner.errors import SfvError
     from actors.motion_io import save_motion
+    from learner.errors import SfvError
     from services.pose import estimate_video
     from services.pose.video import probe_video
     from services.ray_session import connect_ray
     from services.reconstruction import ReconstructionConfig, reconstruct_on_ray
-    from services.training.driver import Trainer
     from services.training.config import TrainConfig
+    from services.training.driver import Trainer
 
     probe_video(args.video)  # missing file / not a video / no frames: one-line error before any work
     out: Path = args.out

@@ -55,10 +55,10 @@ def run_reconstruct(args: argparse.Namespace) -> int:
     from services.pose.camera_path import camera_path, decide_camera
     from services.pose.subject import crop_to_seen
     from services.pose.video import probe_video
+    from services.ray_session import connect_ray
+    from services.reconstruction import ReconstructionConfig, reconstruct_on_ray, reconstruct_track
     from services.reconstruction.root_free import make_root_free
     from services.reconstruction.video_extras import video_extras
-    from services.reconstruction import ReconstructionConfig, reconstruct_on_ray, reconstruct_track
-    from services.ray_session import connect_ray
 
     _check_args(args)
     choice, frames = person_choice(args), frame_range(args)

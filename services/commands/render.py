@@ -49,9 +49,9 @@ def run(args) -> int:
     import dataclasses
 
     import services.render  # noqa: F401  (sets MUJOCO_GL before anything below can import mujoco)
-    from services.training.policy_source import load_policy_source
     from services.render.movie import render_policy
     from services.render.video_writer import check_video_path
+    from services.training.policy_source import load_policy_source
 
     config = build_config(args)
     config.validate()  # before the (slow) policy and env load

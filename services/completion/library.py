@@ -11,11 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-from learner.errors import SfvError
 from actors.imitation_env import ImitationEnv
 from actors.motion_io import load_motion
-from learner.policy import NumpyPolicy
 from actors.skeleton import NUM_JOINTS
+from learner.errors import SfvError
+from learner.policy import NumpyPolicy
 from services.training.run_dir import CONFIG_FILE
 
 

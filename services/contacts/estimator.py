@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
+from learner.errors import SfvError
 from services.contacts.features import FEATURES, frame_stride, window_features
 from services.contacts.settings import DIGEST_FILE, MODEL_FILE
-from learner.errors import SfvError
 
 SHIPPED = Path(__file__).resolve().parent / "weights"
 CONTACT_THRESHOLD = 0.5

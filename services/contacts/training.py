@@ -17,11 +17,12 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from learner.atomic_io import atomic_output
 from actors.motion_io import DEEPMIMIC_CLIPS
+from learner.atomic_io import atomic_output
 from services.contacts.network import contact_network, export_onnx
 from services.contacts.settings import DIGEST_FILE, MODEL_FILE, REPORT_FILE, TrainSettings
 from services.contacts.synthetic_data import ContactDataset, make_dataset
+
 
 def accuracy(network: torch.nn.Module, data: ContactDataset, mask: np.ndarray) -> float:
     network.eval()

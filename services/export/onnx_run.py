@@ -18,8 +18,8 @@ def export_run_onnx(run_dir: str | Path, out: str | Path, seed: int = 0) -> dict
     observations spread like the training data (the run's own normaliser statistics, some
     beyond the clip); a mismatch removes the file and raises.
     """
-    from learner.policy import NumpyPolicy
     from learner.onnx_export import OnnxPolicy, export_policy_onnx
+    from learner.policy import NumpyPolicy
     from services.training.run_dir import load_run
 
     out = Path(out)

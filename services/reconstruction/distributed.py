@@ -2,9 +2,9 @@
 from __future__ import annotations
 
 from actors.motion import ReferenceMotion
+from services.ray_session import get_results, ray_session
 from services.reconstruction.config import ReconstructionConfig
 from services.reconstruction.reconstruct import reconstruct_track
-from services.ray_session import get_results, ray_session
 
 
 def reconstruct_task():

@@ -28,8 +28,8 @@ import numpy as np
 import torch
 
 from actors import quaternion as qn
-from learner.errors import SfvError
 from actors.motion import ReferenceMotion
+from learner.errors import SfvError
 from services.reconstruction.body import PoseParams, body_points
 from services.reconstruction.camera import (
     PinholeCamera,

@@ -15,8 +15,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from learner.errors import SfvError
 from actors.imitation_env import ImitationEnv
+from learner.errors import SfvError
 from services.export.rollout import episode_limit, episode_steps
 from services.render.camera import CameraConfig, FollowCamera
 from services.render.caption import PUSH_RED, WHITE, draw_lines, text_scale

@@ -23,17 +23,22 @@ from pathlib import Path
 
 import numpy as np
 
-from learner.errors import SfvError
 from actors.imitation_env import ImitationEnv
 from actors.motion_io import load_motion
 from actors.rollout_worker import RolloutWorker, WorkerSpec
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
-from learner.errors import NonFiniteError
+from learner.errors import NonFiniteError, SfvError
 from learner.ppo import PPOLearner
 from services.training.asi_connection import ASIConnection
-from services.training.run_dir import (CONFIG_FILE, MetricsLog, checkpoint_files, drop_metrics_after, remove_stale_temp_files,
-                              write_json_atomic)
 from services.training.config import TrainConfig
+from services.training.run_dir import (
+    CONFIG_FILE,
+    MetricsLog,
+    checkpoint_files,
+    drop_metrics_after,
+    remove_stale_temp_files,
+    write_json_atomic,
+)
 from services.training.runners import WorkerFaults, WorkerRunner, make_runner
 
 log = logging.getLogger("sfv.train")

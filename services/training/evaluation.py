@@ -51,10 +51,10 @@ from pathlib import Path
 
 import numpy as np
 
-from learner.errors import SfvError
 from actors.falls import FallDetector
 from actors.features import NUM_REWARD_QUATS, RewardFeatures
 from actors.imitation_env import ImitationEnv
+from learner.errors import SfvError
 from services.training.config import TrainConfig
 
 DEFAULT_EPISODES = 32  # sfv eval

@@ -9,9 +9,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from learner.errors import SfvError
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.motion_io import load_motion
+from learner.errors import SfvError
 from services.training.run_dir import load_run, read_run_config
 
 
