@@ -36,7 +36,7 @@ def rotate_frame(image: np.ndarray, degrees: int) -> tuple[np.ndarray, np.ndarra
     return cv2.rotate(image, _ROTATE_CODES[degrees]), np.asarray(back, dtype=np.float64)
 
 
-def _roi_in_original(roi: Roi, back: np.ndarray, degrees: int) -> Roi:
+def roi_in_original(roi: Roi, back: np.ndarray, degrees: int) -> Roi:
     """A ROI found in the frame turned by `degrees`, expressed in the original frame."""
     centre_x, centre_y = back[:, :2] @ [roi.centre_x, roi.centre_y] + back[:, 2]
     return Roi(float(centre_x), float(centre_y), roi.size, roi.rotation).rotated_by(-np.radians(degrees))
@@ -75,15 +75,19 @@ class ChunkResult:
         return len(self.valid)
 
 
+def load_pose_models(files: PoseModelFiles, config: PoseConfig, score_threshold: float) -> tuple[PoseDetector, LandmarkModel]:
+    """BlazePose's person detector (keeping detections above `score_threshold`) and its landmark model."""
+    detector = PoseDetector(files.detector, score_threshold, config.nms_iou_threshold, config.num_threads)
+    return detector, LandmarkModel(files.landmark, config.num_threads)
+
+
 class FramePoseEstimator:
-    """Stateful over consecutive frames: carries the tracked ROI and the last answer."""
+    """Stateful over consecutive frames: carries the tracked ROI and the last answer (one person:
+    a still image for motion completion; videos go through `people.PeopleEstimator`)."""
 
     def __init__(self, files: PoseModelFiles, config: PoseConfig | None = None):
-        config = config or PoseConfig()
-        self.config = config
-        self.detector = PoseDetector(files.detector, config.detector_score_threshold, config.nms_iou_threshold,
-                                     config.num_threads)
-        self.landmarks = LandmarkModel(files.landmark, config.num_threads)
+        self.config = config = config or PoseConfig()
+        self.detector, self.landmarks = load_pose_models(files, config, config.detector_score_threshold)
         self.reset()
 
     def reset(self) -> None:
@@ -102,7 +106,7 @@ class FramePoseEstimator:
                 rotated, back = rotate_frame(image_rgb, degrees)
                 pose = self._detect_and_estimate(rotated)
                 if pose is not None:
-                    candidates.append((degrees, pose.transformed(back, _roi_in_original(pose.roi, back, degrees))))
+                    candidates.append((degrees, pose.transformed(back, roi_in_original(pose.roi, back, degrees))))
         chosen = self._choose(candidates)
         self._frames_since_previous += 1
         if chosen is None:

@@ -23,9 +23,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from services.pose.config import PoseConfig
-from services.pose.detector import PersonDetection, PoseDetector
-from services.pose.estimator import _roi_in_original, rotate_frame
-from services.pose.landmarks import NUM_BODY_LANDMARKS, FramePose, LandmarkModel
+from services.pose.detector import PersonDetection
+from services.pose.estimator import load_pose_models, roi_in_original, rotate_frame
+from services.pose.landmarks import NUM_BODY_LANDMARKS, FramePose
 from services.pose.models import PoseModelFiles
 from services.pose.roi import Roi, roi_from_alignment_points
 
@@ -69,11 +69,8 @@ class PeopleEstimator:
     """Stateful over consecutive frames of one chunk: the live tracks and the next local id."""
 
     def __init__(self, files: PoseModelFiles, config: PoseConfig | None = None):
-        config = config or PoseConfig()
-        self.config = config
-        self.detector = PoseDetector(files.detector, config.new_person_score_threshold, config.nms_iou_threshold,
-                                     config.num_threads)
-        self.landmarks = LandmarkModel(files.landmark, config.num_threads)
+        self.config = config = config or PoseConfig()
+        self.detector, self.landmarks = load_pose_models(files, config, config.new_person_score_threshold)
         self._tracks: list[_Track] = []
         self._next_id = 0
         self._frame = 0
@@ -147,7 +144,7 @@ class PeopleEstimator:
                 continue
             roi = roi_from_alignment_points(detection.keypoints[0], detection.keypoints[1])
             pose = self.landmarks.estimate(rotated, roi)
-            candidates.append((degrees, pose.transformed(back, _roi_in_original(pose.roi, back, degrees))))
+            candidates.append((degrees, pose.transformed(back, roi_in_original(pose.roi, back, degrees))))
         present = [c for c in candidates if c[1].presence >= self.config.presence_threshold]
         if not present:
             return []
