@@ -4,7 +4,9 @@
 ASI through the embedded gRPC server), 2 PPO iterations each, and writes the SHA-256 of the
 rollout arrays of one worker's first `sample` call and of the final policy weights, plus a
 few summary numbers. `--check FILE.json` recomputes them and exits 1 naming what changed.
-A restructuring (issue 12) is bit-identical when the digests match on the same machine.
+A restructuring (issue 12) is bit-identical when the digests match on the same machine;
+`bench/results/golden_digests.json` holds this machine's, recorded before issue 12 and matched
+after it.
 """
 from __future__ import annotations
 
