@@ -31,10 +31,7 @@ def _digest(arrays: dict) -> str:
 
 
 def _config(out: str, init: str):
-    try:
-        from services.training.config import TrainConfig
-    except ImportError:  # the layout before issue 12
-        from services.training.config import TrainConfig
+    from services.training.config import TrainConfig
 
     config = TrainConfig(motion="deepmimic:walk", out=out, workers=2, envs_per_worker=4, init=init, samples=2 * 1024,
                          serial=True, torch_threads=1, eval_every=0, plot_every=0, checkpoint_every=1)
@@ -63,10 +60,7 @@ def _rollout_digest() -> dict:
 
 def _training_digest(init: str) -> dict:
     from learner.checkpoint import latest_checkpoint, load_checkpoint
-    try:
-        from services.training.driver import Trainer
-    except ImportError:
-        from services.training.driver import Trainer
+    from services.training.driver import Trainer
 
     with tempfile.TemporaryDirectory() as tmp:
         out = str(Path(tmp) / f"golden_{init}")
