@@ -27,11 +27,35 @@ class RayRunner(WorkerRunner):
         self.workers = [remote_cls.remote(spec, i) for i in range(self.config.workers)]
         pids = ray.get([w.pid.remote() for w in self.workers])  # construction errors surface here
         self._pids = dict(enumerate(pids))
+        self._pid_probes: dict = {}  # pid() calls queued on workers that died or were killed -> index
 
     def _sample(self, weights, version, steps, options):
         import ray
 
-        return _Iteration(self, ray.put(weights), version, steps, options).run()
+        results = _Iteration(self, ray.put(weights), version, steps, options).run()
+        self._note_probed_pids()
+        return results
+
+    def probe_pid(self, index: int) -> None:
+        """Queue a pid() call on a worker Ray is restarting: it runs first in the new process, so
+        the restart is seen even if that process dies or hangs before it answers a sample()."""
+        self._pid_probes[self.workers[index].pid.remote()] = index
+
+    def _note_probed_pids(self) -> None:
+        """Answered probes, before this iteration's results (an actor runs its calls in order, so a
+        probe queued before a sample() has answered when that sample() has)."""
+        import ray
+        from ray.exceptions import RayError
+
+        if not self._pid_probes:
+            return
+        ready, _ = ray.wait(list(self._pid_probes), num_returns=len(self._pid_probes), timeout=0)
+        for ref in ready:
+            index = self._pid_probes.pop(ref)
+            try:
+                self._note_pid(index, int(ray.get(ref)))
+            except RayError:  # that process died as well; its successor's answers will show
+                pass
 
 
 class _Iteration:
@@ -81,6 +105,7 @@ class _Iteration:
                 for ref, index in list(self.pending.items()):
                     del self.pending[ref]
                     ray.kill(self.workers[index], no_restart=False)
+                    self.runner.probe_pid(index)
                     self.lost(index, f"no answer within {timeout:g} s, killed")
                 continue
             for ref in ready:
@@ -100,6 +125,7 @@ class _Iteration:
                 raise SfvError(f"rollout worker {index}: {cause}") from None
             self.lost(index, f"{type(cause or exc).__name__}: {str(cause or exc).splitlines()[0][:200]}")
         except RayError as exc:  # the process died (Ray restarts it) or its result was lost
+            self.runner.probe_pid(index)
             self.lost(index, type(exc).__name__)
         else:
             self.results.append(result)

@@ -1,0 +1,52 @@
+"""The Ray runner counts every restart of a worker process, also one whose new process dies
+before it ever answers a sample() (the restart is seen through a pid() call queued on it)."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from services.training.runners import RayRunner, WorkerFaults
+
+pytestmark = pytest.mark.integration
+
+
+class DiesTwiceWorker:
+    """Worker 0 kills its own process on its first two sample() calls (a file counts them across
+    incarnations); worker 1 always answers."""
+
+    def __init__(self, spec, index: int):
+        self.counter, self.index = Path(spec["counter"]), index
+
+    def pid(self) -> int:
+        return os.getpid()
+
+    def sample(self, weights, version, steps, **options):
+        if self.index == 0:
+            calls = int(self.counter.read_text() or 0) + 1 if self.counter.exists() else 1
+            self.counter.write_text(str(calls))
+            if calls <= 2:
+                os._exit(1)
+        return {"worker_index": np.array(self.index), "worker_pid": np.array(os.getpid()), "policy_version": np.array(version)}
+
+
+def test_two_deaths_in_a_row_are_two_restarts(tmp_path):
+    import ray
+
+    config = SimpleNamespace(ray_address=None, workers=2, worker_timeout_s=60.0)
+    faults = WorkerFaults()
+    runner = RayRunner(config, DiesTwiceWorker, faults)
+    try:
+        runner.start({"counter": str(tmp_path / "calls")})
+        first_pid = runner._pids[0]
+        for version in range(3):
+            results = runner.collect({}, version, 1, {})
+            assert len(results) == 2  # the lost share was reissued
+        assert faults.failures == 2
+        assert faults.restarts == 2
+        assert runner._pids[0] != first_pid
+    finally:
+        ray.shutdown()
