@@ -16,7 +16,7 @@ RUNNER_NAMES = ("ray", "in_process", "processes")
 
 @dataclass
 class TrainConfig:
-    motion: str = field(default="deepmimic:walk", metadata={"help": "motion to imitate: a name (deepmimic:walk) or a .npz / DeepMimic file"})
+    motion: str = field(default="deepmimic:walk", metadata={"help": "motion to imitate: a name (deepmimic:walk) or a .npz / DeepMimic / BVH file (any rig, retargeted)"})
     out: str = field(default="runs/walk", metadata={"help": "run directory: config, metrics.jsonl, TensorBoard events, checkpoints"})
     workers: int = field(default=2, metadata={"help": "rollout workers (Ray actors, one process each)"})
     envs_per_worker: int = field(default=32, metadata={"help": "envs per worker, stepped together with one batched policy forward (32 amortises the 1024-512 policy: worker at ~0.9 of raw physics vs ~0.8 at 16)"})
