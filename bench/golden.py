@@ -34,7 +34,7 @@ def _config(out: str, init: str):
     from services.training.config import TrainConfig
 
     config = TrainConfig(motion="deepmimic:walk", out=out, workers=2, envs_per_worker=4, init=init, samples=2 * 1024,
-                         serial=True, torch_threads=1, eval_every=0, plot_every=0, checkpoint_every=1)
+                         runner="in_process", torch_threads=1, eval_every=0, plot_every=0, checkpoint_every=1)
     config.ppo.batch_size = 1024
     config.ppo.minibatch_size = 256
     return config

@@ -1,24 +1,17 @@
 """bench/scaling.py's worker counts, and the real training loop over process workers (no Ray)."""
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import pytest
 
 from services.training.config import TrainConfig
 from services.training.driver import Trainer
 from services.training.run_dir import read_metrics
-
-SCRIPT = Path(__file__).resolve().parents[1] / "bench" / "scaling.py"
+from tests.bench_scripts import load_bench_script
 
 
 @pytest.fixture(scope="module")
 def scaling():
-    spec = importlib.util.spec_from_file_location("bench_scaling", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_bench_script("scaling")
 
 
 @pytest.mark.parametrize("max_workers, counts", [(16, [1, 2, 4, 8, 16]), (12, [1, 2, 4, 8, 12]), (1, [1])])

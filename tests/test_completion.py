@@ -44,7 +44,7 @@ def still_image(shared_dir, tmp_path_factory):
 
 def tiny_run(out, motion: str) -> None:
     config = TrainConfig(motion=motion, out=str(out), workers=1, envs_per_worker=4, init="rsi", samples=256, seed=5,
-                         checkpoint_every=1, plot_every=0, serial=True)
+                         checkpoint_every=1, plot_every=0, runner="in_process")
     config.ppo.batch_size = 256
     config.ppo.minibatch_size = 128
     config.ppo.policy_hidden = (32, 32)

@@ -287,7 +287,7 @@ def stand_run(tmp_path_factory):
     motion = save_motion(stand_motion(), root / "stand.npz")
     run = root / "run"
     run.mkdir()
-    config = TrainConfig(motion=str(motion), out=str(run), init="rsi", serial=True, env=EnvConfig(horizon_s=2.0))
+    config = TrainConfig(motion=str(motion), out=str(run), init="rsi", runner="in_process", env=EnvConfig(horizon_s=2.0))
     config.ppo.policy_hidden, config.ppo.value_hidden = (32,), (16,)
     (run / CONFIG_FILE).write_text(json.dumps(config.to_dict()))
     learner = PPOLearner(OBS_DIM, 28, config.ppo)
@@ -349,7 +349,7 @@ def test_training_evaluates_when_the_sample_count_crosses_eval_every_and_at_the_
 
     motion = save_motion(stand_motion(), tmp_path / "stand.npz")
     config = TrainConfig(motion=str(motion), out=str(tmp_path / "run"), workers=1, envs_per_worker=4, init="rsi",
-                         samples=4 * 128, serial=True, plot_every=1, plot_min_interval_s=0.0, eval_every=200,
+                         samples=4 * 128, runner="in_process", plot_every=1, plot_min_interval_s=0.0, eval_every=200,
                          eval_episodes=2, env=EnvConfig(horizon_s=1.0))
     config.ppo.batch_size, config.ppo.minibatch_size = 128, 128
     config.ppo.policy_hidden, config.ppo.value_hidden = (32,), (16,)

@@ -33,7 +33,7 @@ ACT_DIM = 28  # the default exp-map (residual) actions: 8 ball joints x 3 + 4 hi
 
 def make_tiny_run(run_dir: Path, init: str = "rsi", seed: int = 0, hidden=(64,), returns=(0.05, 0.1, 0.2)) -> PPOLearner:
     run_dir.mkdir(parents=True, exist_ok=True)
-    config = TrainConfig(motion="deepmimic:walk", out=str(run_dir), init=init, seed=seed, serial=True)
+    config = TrainConfig(motion="deepmimic:walk", out=str(run_dir), init=init, seed=seed, runner="in_process")
     config.ppo.policy_hidden = tuple(hidden)
     config.ppo.value_hidden = (16,)
     config.ppo.seed = seed

@@ -144,7 +144,7 @@ def test_redis_password_honoured_and_never_printed(tmp_path, redis_server_with_p
 def trained_run(tmp_path_factory):
     """A finished 2-iteration run (two checkpoints), trained once for the checkpoint tests."""
     out = tmp_path_factory.mktemp("trained") / "run"
-    config = TrainConfig(out=str(out), workers=1, envs_per_worker=4, init="rsi", samples=512, serial=True,
+    config = TrainConfig(out=str(out), workers=1, envs_per_worker=4, init="rsi", samples=512, runner="in_process",
                          checkpoint_every=1, plot_every=0)
     config.ppo.batch_size, config.ppo.minibatch_size = 256, 128
     config.ppo.policy_hidden = config.ppo.value_hidden = (64, 32)

@@ -146,3 +146,10 @@ def test_runner_flags_agree_with_the_older_serial_switch(tmp_path):
     run = _saved_run(tmp_path, "--serial")
     resumed = train.build_config(parse("--out", str(run), "--resume", "--runner", "ray"))
     assert (resumed.runner, resumed.serial) == ("ray", False)
+
+
+def test_a_run_config_written_with_the_serial_switch_loads_as_the_in_process_runner():
+    old = {**TrainConfig().to_dict(), "serial": True}
+    del old["runner"]
+    assert TrainConfig.from_dict(old).runner == "in_process"
+    assert TrainConfig.from_dict({**TrainConfig().to_dict(), "serial": False}).runner == "ray"

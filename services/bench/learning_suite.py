@@ -227,7 +227,7 @@ def train_config(config: LearningConfig, cell: Cell):
 
     train = TrainConfig(motion=cell.skill, out=str(run_dir_of(config, cell)), workers=config.workers,
                         envs_per_worker=config.envs_per_worker, init=cell.init, samples=config.samples, seed=cell.seed,
-                        serial=config.serial, device=config.device, eval_every=config.resolved_eval_every(),
+                        runner="in_process" if config.serial else "ray", device=config.device, eval_every=config.resolved_eval_every(),
                         torch_threads=config.torch_threads)
     train.ppo = dataclasses.replace(train.ppo, seed=cell.seed)
     if config.eval_episodes is not None:

@@ -5,15 +5,14 @@ from collections.abc import Callable
 from pathlib import Path
 
 from services.pose.config import PoseConfig
-from services.pose.estimator import ChunkResult, estimate_chunk
 from services.pose.models import PoseModelFiles
 from services.ray_session import get_results, ray_session
 
 
 def run_chunks_on_ray(video: Path, ranges: list[tuple[int, int]], files: PoseModelFiles,
-                      config: PoseConfig, chunk_function: Callable = estimate_chunk) -> list[ChunkResult]:
+                      config: PoseConfig, chunk_function: Callable) -> list:
     """One `ray.remote` task of `chunk_function(video, start, stop, files, config)` per (start,
-    stop) range. Starts a local Ray (num_cpus = os.cpu_count()) when none is initialised, and
+    stop) range (the people tracker's `estimate_people_chunk`), results in range order. Starts a local Ray (num_cpus = os.cpu_count()) when none is initialised, and
     shuts it down again afterwards."""
     import ray
 

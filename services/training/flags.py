@@ -101,6 +101,7 @@ ALIASES = (
     Alias("--batch-size", ("ppo.batch_size",), _positive(int)),
     Alias("--hidden", ("ppo.policy_hidden", "ppo.value_hidden"), _int_list(True, False),
           "hidden layer sizes of the policy and value MLPs (paper: 1024,512)", metavar="N,N"),
+    Alias("--serial", ("runner",), const="in_process", help="run the workers in this process, without Ray (= --runner in_process)"),
     Alias("--torch-threads", ("torch_threads",), _positive(int),
           "learner's torch threads (default: every core; workers wait while the learner updates)"),
     Alias("--physics-hz", ("env.physics.physics_hz",)),
@@ -124,7 +125,7 @@ REWARD_PRESETS = ("deepmimic", "sfv_paper")
 # Changing these between a checkpoint and its continuation leaves the learner, its ASI
 # distribution and the env consistent; anything else is refused on --resume.
 SAFE_ON_RESUME = frozenset({
-    "samples", "workers", "envs_per_worker", "runner", "serial", "device", "torch_threads", "ray_address",
+    "samples", "workers", "envs_per_worker", "runner", "device", "torch_threads", "ray_address",
     "asi_address", "asi_host", "redis_url", "asi_tls_ca", "asi_outage_s", "worker_timeout_s", "checkpoint_every",
     "keep_checkpoints", "plot_every", "plot_min_interval_s", "eval_every", "eval_episodes", "curriculum_start_s",
     "curriculum_samples", "asi_episodes_per_update", "asi_step_size",
@@ -331,8 +332,6 @@ def resolve(given: dict[str, Any], flags: dict[str, str], base: dict | None = No
         _refuse_unsafe_changes(given, flags, config_dict)
     for path, value in given.items():
         _set(config_dict, path, list(value) if isinstance(value, tuple) else value)
-    if "runner" in given and "serial" not in given:  # the runner named wins over a saved `serial`
-        config_dict["serial"] = config_dict["runner"] == "in_process"
     if "ppo.batch_size" in given and "ppo.minibatch_size" not in given:  # a smaller batch than one minibatch
         config_dict["ppo"]["minibatch_size"] = min(config_dict["ppo"]["minibatch_size"], config_dict["ppo"]["batch_size"])
     try:

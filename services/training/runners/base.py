@@ -30,6 +30,7 @@ class WorkerRunner(ABC):
         self.worker_class = worker_class  # RolloutWorker, or a test's subclass of it
         self.faults = faults
         self._pids: dict[int, int] = {}
+        self.workers: list = []  # what start() built: worker objects, Ray actor handles or process pipes
 
     @abstractmethod
     def start(self, spec) -> None:

@@ -70,7 +70,6 @@ class ProcessRunner(WorkerRunner):
 
     def start(self, spec) -> None:
         context = mp.get_context("spawn")
-        self.workers: list[ProcessWorker] = []
         with child_environment(SINGLE_THREAD_ENV):
             self.workers = [ProcessWorker(context, self.worker_class, spec, i) for i in range(self.config.workers)]
         for worker in self.workers:
@@ -82,5 +81,5 @@ class ProcessRunner(WorkerRunner):
         return [worker.receive() for worker in self.workers]
 
     def close(self) -> None:
-        for worker in getattr(self, "workers", []):
+        for worker in self.workers:
             worker.close()
