@@ -23,6 +23,7 @@ from actors.falls import FallDetector
 from actors.features import FeatureExtractor, RewardFeatures, observation_dim, update_kinematics
 from actors.humanoid import Humanoid, PhysicsConfig
 from actors.motion import ReferenceMotion
+from actors.movingcam import ENV_MODES, MovingcamConfig, MovingcamTracking
 from actors.reference_obs import ReferenceObservation
 from actors.reference_track import ReferenceTrack
 from actors.reward import NUM_TERMS, ImitationReward, RewardConfig
@@ -46,14 +47,30 @@ class EnvConfig:
     zero_reward_on_fall: bool = field(default=True, metadata={"help": "the step that ends in a fall earns 0, so falling never pays"})
     init: str = field(default="rsi", metadata={"choices": ("fsi", "rsi"), "help": "start of an episode when reset() is given no state: fsi or rsi"})
     reference_obs_steps: tuple[int, ...] = field(default=(1, 15), metadata={"help": "control steps ahead at which the policy also observes the reference root (position and rotation in its heading frame, drift included; MimicKit tar_obs_steps); () for SFV's observation. Walk, ASI, same seed, eval NR at 1 M samples: .908 with (1, 15), .708 without (RSI: .929 at 1 M with, .901 at 3 M without)"})
+    mode: str = field(default="sfv", metadata={"choices": ENV_MODES, "help": "sfv: DeepMimic/SFV imitation of the whole reference, root path included; movingcam: the dynamic-camera paper's tracking (002 §5: joint angles, orientation hint, contacts; the root path is left to physics, see actors/movingcam.py)"})
+    movingcam: MovingcamConfig = field(default_factory=MovingcamConfig, metadata={"help": "the movingcam mode's reward and termination"})
     state_space: str = field(default="rotvec", metadata={"choices": ("rotvec", "qpos"), "help": "coordinates of the initial-state vectors ASI learns a Gaussian over: rotvec (rotations as rotation vectors, 66-D) or qpos (SFV's raw qpos[2:] + qvel, 75-D, quaternion entries perturbed one by one)"})
 
     def __post_init__(self):
         if self.ground_contact_links is not None:
             object.__setattr__(self, "ground_contact_links", tuple(self.ground_contact_links))
         object.__setattr__(self, "reference_obs_steps", tuple(int(k) for k in self.reference_obs_steps))
+        if isinstance(self.movingcam, dict):  # from a saved run config
+            object.__setattr__(self, "movingcam", MovingcamConfig(**self.movingcam))
+        if self.mode not in ENV_MODES:
+            raise ValueError(f"env mode must be one of {ENV_MODES}, got {self.mode!r}")
         if any(k < 0 for k in self.reference_obs_steps):
             raise ValueError(f"reference_obs_steps must be >= 0, got {self.reference_obs_steps}")
+
+    @property
+    def max_reward(self) -> float:
+        """The most one control step can earn (the mode's reward weights)."""
+        return self.movingcam.reward.max_reward if self.mode == "movingcam" else self.reward.max_reward
+
+    @property
+    def root_free(self) -> bool:
+        """The reference's root path is not tracked (movingcam): no root sync, no reference roots observed."""
+        return self.mode == "movingcam"
 
     @property
     def substeps(self) -> int:
@@ -78,7 +95,8 @@ class ImitationEnv(gym.Env):
         self.features = FeatureExtractor(self.humanoid)
         self.actions = ActionMapper(config.action_parameterisation, config.residual_action_scale)
         self.reward_fn = ImitationReward(config.reward, self.humanoid.joint_dof_adr)
-        self.max_reward = config.reward.max_reward
+        # movingcam mode: 002's reward, termination and root-free observation (None in SFV's mode).
+        self.movingcam = MovingcamTracking(self.track, self.humanoid, config.movingcam, 1, config.reference_obs_steps) if config.root_free else None
         self.obs_dim = observation_dim(len(config.reference_obs_steps))
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self.obs_dim,), np.float32)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
@@ -87,8 +105,8 @@ class ImitationEnv(gym.Env):
         self._ctrl = self.data.ctrl.reshape(1, -1)  # one view kept: MjData hands out a new array per access
         self._obs = np.zeros((1, self.obs_dim), dtype=np.float64)
         self.fall_detector = FallDetector.for_clip(self.humanoid, motion.name, config.ground_contact_links)
-        self.root_sync = RootSync(self.track, 1, config.sync_root_per_cycle)
-        self.reference_obs = ReferenceObservation(self.track, 1, config.reference_obs_steps)
+        self.root_sync = RootSync(self.track, 1, config.sync_root_per_cycle and not config.root_free)
+        self.reference_obs = ReferenceObservation(self.track, 1, () if config.root_free else config.reference_obs_steps)
         self._row_buf = np.zeros(1, dtype=np.int64)
         # MuJoCo resets MjData by itself when the simulation blows up (bad qpos / qvel / qacc)
         # and only counts a warning: a view of those three counters (mj_resetData clears them).
@@ -151,12 +169,20 @@ class ImitationEnv(gym.Env):
         self._row_buf[0] = row
         ref = self.track.features.take(self._row_buf, self._reference)
         self.root_sync.apply(self._row_buf, features.pos[:, 0, :2], ref)
-        reward = float(self.reward_fn.batch(features.reward_features(yaw), ref, self._terms)[0])
+        if self.movingcam is None:
+            reward = float(self.reward_fn.batch(features.reward_features(yaw), ref, self._terms)[0])
+        else:
+            self.movingcam.capture(0, self.data)
+            reward = float(self.movingcam.rewards(self._row_buf, features, features.reward_features(yaw), ref, self._terms,
+                                                  self.config.early_termination)[0])
+            fell = fell or bool(self.movingcam.terminated[0])
         if diverged or (fell and self.config.zero_reward_on_fall):
             reward = 0.0
         terminated, truncated = self.ending(fell, diverged)
-        obs = features.observations(self.track.phase[row], self._obs, yaw, self.reference_obs.gather(self._row_buf, self.root_sync.offset))[0]
-        return obs.astype(np.float32), reward, terminated, truncated, {}
+        obs = features.observations(self.track.phase[row], self._obs, yaw, self.reference_obs.gather(self._row_buf, self.root_sync.offset))
+        if self.movingcam is not None:
+            self.movingcam.observe(self._row_buf, obs)
+        return obs[0].astype(np.float32), reward, terminated, truncated, {}
 
     def simulate(self) -> tuple[bool, bool]:
         """Advance one control step with `data.ctrl` already set: (fell, diverged).
@@ -189,6 +215,11 @@ class ImitationEnv(gym.Env):
         return float(self.track.phase[self.row])
 
     @property
+    def max_reward(self) -> float:
+        """The most one control step can earn (movingcam: r_track's, plus r_scene's with a scene)."""
+        return self.config.reward.max_reward if self.movingcam is None else self.movingcam.max_reward
+
+    @property
     def max_episode_steps(self) -> int:
         return self._max_steps
 
@@ -207,7 +238,11 @@ class ImitationEnv(gym.Env):
     def reward_at(self, row: int) -> float:
         """Reward of the current simulated state against the reference at `row`."""
         sim = self.features.reward_features_of(self.data)
-        return self.reward_fn(sim, self.track.reward_features(row), self.reward_terms)
+        if self.movingcam is None:
+            return self.reward_fn(sim, self.track.reward_features(row), self.reward_terms)
+        self.movingcam.capture(0, self.data)
+        self._row_buf[0] = row
+        return float(self.movingcam.rewards(self._row_buf, self.features, sim, self.track.reward_features(row), self._terms, False)[0])
 
     # --------------------------------------------------------------------- internals
     def _observation(self) -> np.ndarray:
@@ -221,4 +256,7 @@ class ImitationEnv(gym.Env):
     def _observe(self) -> np.ndarray:
         self._row_buf[0] = self.row
         reference = self.reference_obs.gather(self._row_buf, self.root_sync.offset)
-        return self.features.observation(self.data, self.track.phase[self.row], self._obs, reference)
+        obs = self.features.observation(self.data, self.track.phase[self.row], self._obs, reference)
+        if self.movingcam is not None:
+            self.movingcam.observe(self._row_buf, self._obs)
+        return obs

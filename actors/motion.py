@@ -44,6 +44,7 @@ class ReferenceMotion:
     joint_rot: np.ndarray  # (T, 12, 4) unit quaternions, parent-local
     loop: bool = False
     extras: dict = field(default_factory=dict)  # arrays carried along in the file (keypoints, ...)
+    source: str | None = field(default=None, compare=False)  # the file it was loaded from (for error messages)
 
     def __post_init__(self):
         self.frame_times = np.asarray(self.frame_times, dtype=np.float64)

@@ -72,6 +72,7 @@ def load_motion(name_or_path: str) -> ReferenceMotion:
 
         motion = load_bvh_clip(path)
         _check_derived(path, motion)
+        motion.source = str(path)
         return motion
     # Overflow is detected after loading (`_check_derived`), so numpy need not warn about it.
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
@@ -79,6 +80,7 @@ def load_motion(name_or_path: str) -> ReferenceMotion:
     _check_derived(path, motion)
     if str(name_or_path).startswith("deepmimic:"):
         motion.name = str(name_or_path)
+    motion.source = str(path)
     return motion
 
 

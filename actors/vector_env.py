@@ -16,6 +16,7 @@ from actors.humanoid import Humanoid
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.initial_states import BufferedStarts
 from actors.motion import ReferenceMotion
+from actors.movingcam import MovingcamTracking
 from actors.reference_obs import ReferenceObservation
 from actors.reference_track import ReferenceTrack
 from actors.reward import NUM_TERMS
@@ -78,7 +79,7 @@ class VectorImitationEnv:
         self.reward_fn = first.reward_fn
         self.early_termination = config.early_termination
         self.zero_reward_on_fall = config.zero_reward_on_fall
-        self.root_sync = RootSync(track, num_envs, config.sync_root_per_cycle)
+        self.root_sync = RootSync(track, num_envs, config.sync_root_per_cycle and not config.root_free)
         self._targets = np.zeros((num_envs, first.model.nu))
         self._base = np.zeros((num_envs, first.model.nu))  # each env's reference targets for residual actions
         self._rows = np.zeros(num_envs, dtype=np.int64)  # each env's current reference row
@@ -88,7 +89,14 @@ class VectorImitationEnv:
         self._diverged = np.zeros(num_envs, dtype=bool)
         self._terms = np.zeros((num_envs, NUM_TERMS))
         self._obs64 = np.zeros((num_envs, obs_dim))
-        self.reference_obs = ReferenceObservation(track, num_envs, config.reference_obs_steps)
+        self.reference_obs = ReferenceObservation(track, num_envs, () if config.root_free else config.reference_obs_steps)
+        # movingcam mode (002): its reward, termination and root-free observation for the batch.
+        self.movingcam = MovingcamTracking(track, humanoid, config.movingcam, num_envs, config.reference_obs_steps) if config.root_free else None
+
+    @property
+    def max_reward(self) -> float:
+        """The most one control step can earn (the mode's reward, scene included)."""
+        return self.envs[0].max_reward if self.movingcam is None else self.movingcam.max_reward
 
     def set_horizon(self, seconds: float | None) -> None:
         """Cap the length of episodes that start from now on (an episode-length curriculum);
@@ -138,17 +146,26 @@ class VectorImitationEnv:
             env.data.ctrl[:] = targets[i]
             self._fell[i], self._diverged[i] = env.simulate()
             features.capture(i, env.data)
+            if self.movingcam is not None:
+                self.movingcam.capture(i, env.data)
             self._rows[i] = env.row
         track = self.track
         yaw = features.heading()
         reference = track.features.take(self._rows, self._reference)
         self.root_sync.apply(self._rows, features.pos[:, 0, :2], reference)
-        rewards = self.reward_fn.batch(features.reward_features(yaw), reference, self._terms)
+        if self.movingcam is None:
+            rewards = self.reward_fn.batch(features.reward_features(yaw), reference, self._terms)
+        else:
+            rewards = self.movingcam.rewards(self._rows, features, features.reward_features(yaw), reference, self._terms,
+                                             self.early_termination)
+            self._fell |= self.movingcam.terminated
         rewards[self._diverged] = 0.0
         if self.zero_reward_on_fall:
             rewards[self._fell] = 0.0
         self.rewards[:] = rewards
         features.observations(track.phase[self._rows], self._obs64, yaw, self.reference_obs.gather(self._rows, self.root_sync.offset))
+        if self.movingcam is not None:
+            self.movingcam.observe(self._rows, self._obs64)
         self.final_obs[:] = self._obs64
         self._ret += rewards
         self._disc += self._discount * rewards
@@ -164,7 +181,7 @@ class VectorImitationEnv:
 
     def _record(self, i: int, fell: bool) -> None:
         env = self.envs[i]
-        max_return = env.max_reward * env.max_episode_steps
+        max_return = self.max_reward * env.max_episode_steps
         log = self.episodes
         log.returns.append(self._ret[i])
         log.normalized_returns.append(self._ret[i] / max_return)

@@ -55,7 +55,7 @@ class Trainer:
 
     def __init__(self, config: TrainConfig, resume: bool = False, progress: bool = True):
         if config.ppo.reward_max is not None:  # value targets are bounded by this env's own reward
-            config.ppo.reward_max = config.env.reward.max_reward
+            config.ppo.reward_max = config.env.max_reward
         config.validate()
         self.config = config
         self.resume = resume

@@ -120,7 +120,7 @@ ALIASES = (
     Alias("--no-root-sync", ("env.sync_root_per_cycle",), const=False,
           help="do not re-synchronise the reference root to the character each cycle"),
 )
-REWARD_PRESETS = ("deepmimic", "sfv_paper")
+REWARD_PRESETS = ("deepmimic", "sfv_paper", "movingcam")
 
 # Changing these between a checkpoint and its continuation leaves the learner, its ASI
 # distribution and the env consistent; anything else is refused on --resume.
@@ -238,7 +238,8 @@ def add_config_flags(parser: argparse.ArgumentParser) -> None:
             group.add_argument(alias.flag, dest=dest, type=alias.type, default=argparse.SUPPRESS, help=help_text, metavar=alias.metavar)
     group.add_argument("--reward", dest="preset:reward", choices=REWARD_PRESETS, default=argparse.SUPPRESS,
                        help="reward preset (default deepmimic: weighted-mean joint errors, root term, centre-of-mass velocity; "
-                            "sfv_paper: the paper's sums and weights); --env.reward.* fields adjust either")
+                            "sfv_paper: the paper's sums and weights; movingcam: the dynamic-camera paper's tracking mode, "
+                            "root path left to physics, residual targets); --env.reward.* / --env.movingcam.* fields adjust them")
 
 
 def given_settings(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, str]]:
@@ -324,7 +325,9 @@ def resolve(given: dict[str, Any], flags: dict[str, str], base: dict | None = No
     from services.training.config import TrainConfig
 
     config_dict = json.loads(json.dumps((TrainConfig() if base is None else TrainConfig.from_dict(base)).to_dict()))
-    if reward_preset is not None:
+    if reward_preset == "movingcam":
+        given, flags = movingcam_preset(given, flags)
+    elif reward_preset is not None:
         preset = RewardConfig() if reward_preset == "deepmimic" else RewardConfig.sfv_paper()
         given = {**{f"env.reward.{k}": v for k, v in dataclasses.asdict(preset).items()}, **given}
         flags = {**{f"env.reward.{k}": "--reward" for k in dataclasses.asdict(preset)}, **flags}
@@ -338,6 +341,18 @@ def resolve(given: dict[str, Any], flags: dict[str, str], base: dict | None = No
         return TrainConfig.from_dict(config_dict)
     except (ValueError, TypeError) as exc:
         raise SfvError(f"sfv train: {exc}") from None
+
+
+def movingcam_preset(given: dict, flags: dict) -> tuple[dict, dict]:
+    """`--reward movingcam`: the env's movingcam mode with 002's reward and termination defaults
+    and residual targets (eq. 1: q_target = q_ref + a), under whatever the user gave."""
+    from actors.imitation_env import EnvConfig
+    from actors.movingcam import MovingcamConfig
+
+    preset = {"env.mode": "movingcam", "env.residual_action_scale": EnvConfig().residual_action_scale or 0.5}
+    for leaf in leaves(MovingcamConfig, "env.movingcam."):
+        preset[leaf.path] = leaf.default
+    return {**preset, **given}, {**dict.fromkeys(preset, "--reward"), **flags}
 
 
 def _refuse_unsafe_changes(given: dict, flags: dict, saved: dict) -> None:

@@ -1,0 +1,172 @@
+"""The synthetic moving-camera check of issue 15: does physics recover the root path?
+
+A DeepMimic clip seen by a camera that tracks the character loses its root path; what the
+video still gives is the joint rotations (here the clip's, plus noise: the 3D prediction's
+error), the body-orientation hint and the foot contacts (here from the clip,
+`actors/clip_cues.py`). Stages:
+
+1. prepare: the clip's root path removed (`services/reconstruction/root_free.make_root_free`),
+   hint and contacts from the clean clip, Gaussian noise of `--noise-rad` on every joint
+   rotation (a random rotation vector per joint and frame), written as a motion .npz.
+2. train (run it under the CPU lock): `sfv train --motion THAT.npz --reward movingcam ...`.
+3. report: the trained policy rolled out deterministically from the clip's first frame for
+   the horizon (20 s), its simulated root path against the clip's *true* one (the clean clip,
+   looped with its cycle offset), both from the same start:
+   - path_error_per_m: mean horizontal distance between the simulated and the true root over
+     the episode, divided by the true path length travelled; endpoint_error_per_m likewise
+     for the last step;
+   - heading_error_deg: mean absolute yaw difference of the roots; travel_direction_error_deg:
+     angle between the simulated and the true start-to-end displacements;
+   - distance_ratio: simulated over true distance travelled;
+   plus the strict evaluation by the 002 reward (normalised return, fall rate, survival),
+   and contact accuracy (fraction of steps x feet whose simulated contact equals the flag).
+   Writes `bench/results/movingcam_synthetic.json`.
+
+    python bench/movingcam_synthetic.py prepare --out /tmp/mc
+    sfv train --motion /tmp/mc/synthetic.npz --reward movingcam --samples 1500000 --torch-threads 1 --out /tmp/mc/run
+    python bench/movingcam_synthetic.py report --out /tmp/mc
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))
+
+RESULT = REPO / "bench" / "results" / "movingcam_synthetic.json"
+
+
+def prepare(clip: str, noise_rad: float, seed: int, out: Path) -> Path:
+    from actors import quaternion as qn
+    from actors.clip_cues import clip_cues
+    from actors.motion import ReferenceMotion
+    from actors.motion_io import load_motion, save_motion
+    from services.reconstruction.root_free import make_root_free
+
+    clean = load_motion(clip)
+    rng = np.random.default_rng(seed)
+    noise = qn.quat_from_axis_angle(rng.normal(0.0, noise_rad / math.sqrt(3.0), clean.joint_rot.shape[:-1] + (3,)))
+    noisy = ReferenceMotion(clean.name, clean.frame_times, clean.root_pos, clean.root_rot,
+                            qn.quat_normalize(qn.quat_mul(clean.joint_rot, noise)), clean.loop, dict(clean.extras))
+    synthetic = make_root_free(noisy)
+    synthetic.extras.update(clip_cues(clean))
+    synthetic.name = f"{clip.split(':')[-1]}_movingcam_synthetic"
+    return save_motion(synthetic, out / "synthetic.npz")
+
+
+def _yaw(quats: np.ndarray) -> np.ndarray:
+    from actors import quaternion as qn
+
+    return qn.heading_angle(quats)
+
+
+def rollout_paths(policy, env, clean) -> dict:
+    """Deterministic episode from the first frame: simulated and true root xy and yaw per step,
+    and the contact agreement."""
+    obs, _ = env.reset(seed=0, options={"init": "fsi"})
+    row = np.zeros((1, env.observation_space.shape[0]), np.float32)
+    dt = 1.0 / env.config.control_hz
+    sim_xy, sim_yaw, times, agree = [], [], [], []
+    start_xy = env.data.qpos[:2].copy()
+    for step in range(1, env.max_episode_steps + 1):
+        row[0] = obs
+        obs, _, terminated, truncated, _ = env.step(policy.mean(row)[0])
+        sim_xy.append(env.data.qpos[:2].copy())
+        sim_yaw.append(float(_yaw(env.data.qpos[3:7])))
+        times.append(step * dt)
+        mc = env.movingcam
+        agree.append(mc.contacts[0] == (mc.targets.contacts[env.row] > 0.5))
+        if terminated or truncated:
+            break
+    times = np.asarray(times)
+    true = clean.sample(times)
+    true_xy = true.root_pos[:, :2] - clean.sample(np.zeros(1)).root_pos[0, :2] + start_xy
+    return {"times": times, "sim_xy": np.asarray(sim_xy), "true_xy": true_xy, "sim_yaw": np.asarray(sim_yaw),
+            "true_yaw": _yaw(true.root_rot), "start_xy": start_xy, "contact_agreement": np.asarray(agree)}
+
+
+def path_figures(paths: dict) -> dict:
+    sim, true, start = paths["sim_xy"], paths["true_xy"], paths["start_xy"]
+    travelled = float(np.linalg.norm(np.diff(np.vstack((start, true)), axis=0), axis=1).sum())
+    sim_travelled = float(np.linalg.norm(np.diff(np.vstack((start, sim)), axis=0), axis=1).sum())
+    gap = np.linalg.norm(sim - true, axis=1)
+    yaw_gap = np.abs(np.angle(np.exp(1j * (paths["sim_yaw"] - paths["true_yaw"]))))
+    d_sim, d_true = sim[-1] - start, true[-1] - start
+    cos = float(d_sim @ d_true / max(np.linalg.norm(d_sim) * np.linalg.norm(d_true), 1e-12))
+    return {
+        "seconds": float(paths["times"][-1]),
+        "true_path_m": travelled,
+        "sim_path_m": sim_travelled,
+        "path_error_per_m": float(gap.mean()) / travelled,
+        "endpoint_error_per_m": float(gap[-1]) / travelled,
+        "endpoint_error_m": float(gap[-1]),
+        "heading_error_deg": float(np.degrees(yaw_gap.mean())),
+        "travel_direction_error_deg": float(np.degrees(math.acos(max(-1.0, min(1.0, cos))))),
+        "distance_ratio": float(np.linalg.norm(d_sim) / max(np.linalg.norm(d_true), 1e-12)),
+        "contact_accuracy": float(paths["contact_agreement"].mean()),
+    }
+
+
+def report(out: Path, clip: str, noise_rad: float, command: str) -> dict:
+    from threadpoolctl import threadpool_limits
+
+    from actors.motion_io import load_motion
+    from services.training.evaluation import evaluate_policy, make_eval_env
+    from services.training.policy_source import load_policy_source
+    from services.training.run_dir import read_metrics
+
+    run = out / "run"
+    source = load_policy_source(run, None, None)
+    env = make_eval_env(load_motion(source.motion), source.env_config)
+    clean = load_motion(clip)
+    with threadpool_limits(1, user_api="blas"):
+        paths = rollout_paths(source.policy, env, clean)
+        strict = evaluate_policy(source.policy, env, 16, seed=0)
+    np.savez(out / "paths.npz", **{k: v for k, v in paths.items()})
+    curve = [{"samples": m["samples"], "normalized_return": m["eval/normalized_return"], "fall_rate": m["eval/fall_rate"],
+              "episode_seconds": m["eval/episode_seconds"]} for m in read_metrics(run) if "eval/normalized_return" in m]
+    result = {
+        "what": f"{clip} through a character-tracking camera: root path removed, hint and contacts from the clip, "
+                f"{noise_rad} rad noise on joint rotations; trained root-free in movingcam mode; root path from physics "
+                "against the clip's true path (deterministic episode from the first frame)",
+        "command": command,
+        "path": path_figures(paths),
+        "eval_002_reward": {k: strict[k] for k in ("normalized_return", "fall_rate", "episode_seconds", "joint_rotation_error_rad", "episodes")},
+        "eval_curve": curve,
+        "written": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+    }
+    RESULT.parent.mkdir(parents=True, exist_ok=True)
+    from learner.atomic_io import atomic_output
+
+    with atomic_output(RESULT) as tmp:
+        Path(tmp).write_text(json.dumps(result, indent=1) + "\n")
+    return result
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("stage", choices=("prepare", "report"))
+    p.add_argument("--out", required=True, type=Path, help="working folder (synthetic.npz, run/)")
+    p.add_argument("--clip", default="deepmimic:walk")
+    p.add_argument("--noise-rad", type=float, default=0.05, help="std of the joint-rotation noise (rad)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--command", default="", help="the training command, recorded in the result")
+    args = p.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    if args.stage == "prepare":
+        print(prepare(args.clip, args.noise_rad, args.seed, args.out))
+    else:
+        print(json.dumps(report(args.out, args.clip, args.noise_rad, args.command), indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
