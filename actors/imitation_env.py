@@ -9,6 +9,9 @@ than those the clip allows on the ground touches it (DeepMimic's rule: every lin
 feet, `actors/falls.py`; switchable), with reward 0 on that step, and is truncated at the
 horizon: 20 s for looped clips, the clip's end otherwise. The reference's horizontal root is
 re-synchronised to the character's at each new cycle of a looped clip (`actors/root_sync.py`).
+`EnvConfig.mode = "movingcam"` swaps in the dynamic-camera paper's tracking instead: its
+reward, termination and a root-free observation, the root path left to physics
+(`actors/movingcam.py`).
 """
 from __future__ import annotations
 
@@ -27,6 +30,8 @@ from actors.movingcam import ENV_MODES, MovingcamConfig, MovingcamTracking
 from actors.reference_obs import ReferenceObservation
 from actors.reference_track import ReferenceTrack
 from actors.reward import NUM_TERMS, ImitationReward, RewardConfig
+from actors.reward import TERM_NAMES as REWARD_TERM_NAMES
+from actors.reward_movingcam import TERM_NAMES as MOVINGCAM_TERM_NAMES
 from actors.root_sync import RootSync
 from actors.state import StateLayout
 
@@ -213,6 +218,11 @@ class ImitationEnv(gym.Env):
     @property
     def phase(self) -> float:
         return float(self.track.phase[self.row])
+
+    @property
+    def reward_term_names(self) -> tuple[str, ...]:
+        """Names of the five numbers in `reward_terms` (the mode's reward terms, for logging)."""
+        return REWARD_TERM_NAMES if self.movingcam is None else MOVINGCAM_TERM_NAMES
 
     @property
     def max_reward(self) -> float:

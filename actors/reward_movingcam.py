@@ -6,7 +6,7 @@ r_track = w_q r_q + w_v r_v + w_ori r_ori + w_c r_contact + w_reg r_reg, each r 
   of q*^-1 q (2 acos|<q*, q>|), hinges the angle gap. The root's rotation is not a joint:
   "the pose and velocity vectors do not provide any information about the root position
   and orientation".
-- E_v (eq. 6): sum of squared differences of the joints' velocity coordinates (MuJoCo's
+- E_v (eq. 6): sum (by default mean) of squared differences of the joints' velocity coordinates (MuJoCo's
   qvel[6:]: each ball joint's local angular velocity, each hinge's rate; the paper's finite
   differences of joint angles, which the reference's velocities are).
 - E_ori (eq. 7): (|h| - theta)^2 with theta the simulated pelvis-to-neck vector's angle
