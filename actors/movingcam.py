@@ -36,7 +36,7 @@ from actors import quaternion as qn
 from actors.clip_cues import NECK_LINK
 from actors.features import OBS_DIM, RewardFeatures
 from actors.movingcam_targets import MovingcamTargets
-from actors.movingcam_termination import MovingcamTerminationConfig, MovingcamTermination
+from actors.movingcam_termination import MovingcamTermination, MovingcamTerminationConfig
 from actors.reward_movingcam import MovingcamReward, MovingcamRewardConfig
 from actors.skeleton import LINKS
 

@@ -69,8 +69,12 @@ def _yaw(quats: np.ndarray) -> np.ndarray:
 
 
 def rollout_paths(policy, env, clean) -> dict:
-    """Deterministic episode from the first frame: simulated and true root xy and yaw per step,
-    and the contact agreement."""
+    """Deterministic episode from the first frame to the horizon or the clip's strict fall rule
+    (`services.training.evaluation`): simulated and true root xy and yaw per step, and the
+    contact agreement."""
+    from services.training.evaluation import strict_fall_detector
+
+    fell = strict_fall_detector(env)
     obs, _ = env.reset(seed=0, options={"init": "fsi"})
     row = np.zeros((1, env.observation_space.shape[0]), np.float32)
     dt = 1.0 / env.config.control_hz
@@ -84,7 +88,7 @@ def rollout_paths(policy, env, clean) -> dict:
         times.append(step * dt)
         mc = env.movingcam
         agree.append(mc.contacts[0] == (mc.targets.contacts[env.row] > 0.5))
-        if terminated or truncated:
+        if terminated or truncated or fell(env.data):
             break
     times = np.asarray(times)
     true = clean.sample(times)
@@ -102,7 +106,7 @@ def path_figures(paths: dict) -> dict:
     d_sim, d_true = sim[-1] - start, true[-1] - start
     cos = float(d_sim @ d_true / max(np.linalg.norm(d_sim) * np.linalg.norm(d_true), 1e-12))
     return {
-        "seconds": float(paths["times"][-1]),
+        "survived_s": float(paths["times"][-1]),
         "true_path_m": travelled,
         "sim_path_m": sim_travelled,
         "path_error_per_m": float(gap.mean()) / travelled,
@@ -113,6 +117,31 @@ def path_figures(paths: dict) -> dict:
         "distance_ratio": float(np.linalg.norm(d_sim) / max(np.linalg.norm(d_true), 1e-12)),
         "contact_accuracy": float(paths["contact_agreement"].mean()),
     }
+
+
+def plot_paths(paths: dict, png: Path, clip: str) -> None:
+    """Top view: the simulated root path against the clip's true one."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from learner.atomic_io import atomic_output
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    start = paths["start_xy"]
+    for key, label in (("true_xy", f"{clip}: true root path"), ("sim_xy", "simulated (root-free policy)")):
+        xy = np.vstack((start, paths[key]))
+        ax.plot(xy[:, 0], xy[:, 1], label=label)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.legend()
+    ax.set_title(f"movingcam synthetic: {paths['times'][-1]:.1f} s survived")
+    png.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_output(png) as tmp:
+        fig.savefig(tmp, format="png", dpi=100, bbox_inches="tight")
+    plt.close(fig)
 
 
 def report(out: Path, clip: str, noise_rad: float, command: str) -> dict:
@@ -131,6 +160,7 @@ def report(out: Path, clip: str, noise_rad: float, command: str) -> dict:
         paths = rollout_paths(source.policy, env, clean)
         strict = evaluate_policy(source.policy, env, 16, seed=0)
     np.savez(out / "paths.npz", **{k: v for k, v in paths.items()})
+    plot_paths(paths, RESULT.with_suffix(".png"), clip)
     curve = [{"samples": m["samples"], "normalized_return": m["eval/normalized_return"], "fall_rate": m["eval/fall_rate"],
               "episode_seconds": m["eval/episode_seconds"]} for m in read_metrics(run) if "eval/normalized_return" in m]
     result = {

@@ -24,13 +24,13 @@ def env(walk):
     return ImitationEnv(walk, MOVINGCAM)
 
 
-def _score(env, sim_values, tilt, sim_contacts, torque, rows, config=MovingcamRewardConfig()):
+def _score(env, sim_values, tilt, sim_contacts, torque, rows, config=None):
     """Rewards and terms of hand-made simulated features against the env's reference rows."""
     from actors.features import RewardFeatures
 
     b = len(rows)
     targets = env.movingcam.targets
-    reward = MovingcamReward(config, b, len(targets.contact_links), env.model.nu, env.model.nv - 6)
+    reward = MovingcamReward(config or MovingcamRewardConfig(), b, len(targets.contact_links), env.model.nu, env.model.nv - 6)
     terms = np.zeros((b, 5))
     ref = env.track.features.take(rows)
     r = reward.batch(RewardFeatures(sim_values), ref, tilt, targets.hint[rows], targets.hint_weight[rows], sim_contacts,
