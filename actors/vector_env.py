@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from actors.features import FeatureExtractor, RewardFeatures
-from actors.humanoid import Humanoid
+from actors.box_arena import scene_humanoid
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.initial_states import BufferedStarts
 from actors.motion import ReferenceMotion
@@ -47,7 +47,7 @@ class EpisodeLog:
 
 class VectorImitationEnv:
     def __init__(self, motion: ReferenceMotion, config: EnvConfig, num_envs: int, starts: BufferedStarts, seed: int = 0, gamma: float = 0.95):
-        humanoid = Humanoid(config.physics)
+        humanoid = scene_humanoid(config.physics, config.scene, motion)
         track = ReferenceTrack(motion, humanoid, 1.0 / config.control_hz, config.horizon_s)
         self.envs = [ImitationEnv(motion, config, humanoid, track) for _ in range(num_envs)]
         self.num_envs = num_envs
@@ -89,6 +89,13 @@ class VectorImitationEnv:
         self._terms = np.zeros((num_envs, NUM_TERMS))
         self._obs64 = np.zeros((num_envs, obs_dim))
         self.reference_obs = ReferenceObservation(track, num_envs, config.reference_obs_steps)
+        # A scene: every env's e and normalised e as rows of one array (the envs write their rows).
+        self.scene_reward = first.scene_reward
+        self._obs64_features = self._obs64[:, :obs_dim - first.scene_vector.size]
+        self.scene_vectors = np.stack([env.scene_vector for env in self.envs])
+        self.scene_obs = np.stack([env.scene_obs for env in self.envs])
+        for i, env in enumerate(self.envs):
+            env.scene_vector, env.scene_obs = self.scene_vectors[i], self.scene_obs[i]
 
     def set_horizon(self, seconds: float | None) -> None:
         """Cap the length of episodes that start from now on (an episode-length curriculum);
@@ -144,11 +151,14 @@ class VectorImitationEnv:
         reference = track.features.take(self._rows, self._reference)
         self.root_sync.apply(self._rows, features.pos[:, 0, :2], reference)
         rewards = self.reward_fn.batch(features.reward_features(yaw), reference, self._terms)
+        if self.scene_reward is not None:
+            rewards += self.envs[0].scene_rewards(features, self._rows, self.scene_vectors)
         rewards[self._diverged] = 0.0
         if self.zero_reward_on_fall:
             rewards[self._fell] = 0.0
         self.rewards[:] = rewards
-        features.observations(track.phase[self._rows], self._obs64, yaw, self.reference_obs.gather(self._rows, self.root_sync.offset))
+        features.observations(track.phase[self._rows], self._obs64_features, yaw, self.reference_obs.gather(self._rows, self.root_sync.offset))
+        self._obs64[:, self._obs64_features.shape[1]:] = self.scene_obs
         self.final_obs[:] = self._obs64
         self._ret += rewards
         self._disc += self._discount * rewards
@@ -164,7 +174,7 @@ class VectorImitationEnv:
 
     def _record(self, i: int, fell: bool) -> None:
         env = self.envs[i]
-        max_return = env.max_reward * env.max_episode_steps
+        max_return = env.max_episode_return()
         log = self.episodes
         log.returns.append(self._ret[i])
         log.normalized_returns.append(self._ret[i] / max_return)
