@@ -69,10 +69,10 @@ def box_jump_clip(height: float = 0.2):
 
 
 def _scene_yaml(name: str, along: float, height: float, half_domain: float) -> str:
-    low = max(0.0, height - half_domain)
+    low = round(max(0.0, height - half_domain), 6)
     return (f"# {name}\nboxes:\n  - name: box\n    along: {along:g}\n    height: {height:g}\n"
-            f"    size: [{BOX_LENGTH:g}, {BOX_WIDTH:g}]\n    domain:\n      along: [{along - half_domain:g}, {along + half_domain:g}]\n"
-            f"      height: [{low:g}, {height + half_domain:g}]\n")
+            f"    size: [{BOX_LENGTH:g}, {BOX_WIDTH:g}]\n    domain:\n      along: [{round(along - half_domain, 6):g}, {round(along + half_domain, 6):g}]\n"
+            f"      height: [{low:g}, {round(height + half_domain, 6):g}]\n")
 
 
 def main(argv=None) -> int:
