@@ -19,7 +19,7 @@ import numpy as np
 from actors.arena import FlatFloor
 from actors.scene import Scene, SceneFrame
 
-BOX_RGBA = "0.42 0.5 0.62 1"
+BOX_RGBA = "0.42 0.58 0.42 1"  # green: apart from the tan character, the blue ghost and the grey floor
 MIN_HALF_HEIGHT = 5e-4  # m: a box of height 0 (in its domain) stays a valid 1 mm slab, flush with the floor
 
 

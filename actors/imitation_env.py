@@ -22,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import copy
+import os
 
 import gymnasium as gym
 import mujoco
@@ -64,6 +65,8 @@ class EnvConfig:
     def __post_init__(self):
         if self.ground_contact_links is not None:
             object.__setattr__(self, "ground_contact_links", tuple(self.ground_contact_links))
+        if self.scene is not None:  # absolute: workers, renders and resumes may run elsewhere
+            object.__setattr__(self, "scene", os.path.abspath(self.scene))
         object.__setattr__(self, "reference_obs_steps", tuple(int(k) for k in self.reference_obs_steps))
         if any(k < 0 for k in self.reference_obs_steps):
             raise ValueError(f"reference_obs_steps must be >= 0, got {self.reference_obs_steps}")
@@ -111,6 +114,8 @@ class ImitationEnv(gym.Env):
         self._fixed_scene: np.ndarray | None = None
         self.scene_reward = None if self.scene is None else SceneReward.for_track(self.track, self.scene, self.box_arena.frame)
         self.scene_limbs = self.humanoid.body_ids[SCENE_LIMB_LINKS] - 1  # rows of FeatureExtractor.pos
+        # The boxes' geom ids (empty on the flat floor), for an obstacle-collision termination.
+        self.obstacle_geom_ids: tuple[int, ...] = () if self.box_arena is None else self.box_arena.box_geom_ids(self.model)
         if self.scene is not None:
             self._fixed_scene = self.scene.vector()  # the file's boxes until the first reset
             self._place_scene(None)
