@@ -12,16 +12,27 @@ re-synchronised to the character's at each new cycle of a looped clip (`actors/r
 `EnvConfig.mode = "movingcam"` swaps in the dynamic-camera paper's tracking instead: its
 reward, termination and a root-free observation, the root path left to physics
 (`actors/movingcam.py`).
+
+With a scene file (`EnvConfig.scene`, `actors/scene.py`) the floor carries boxes
+(`actors/box_arena.py`), each env owns a copy of the compiled model so that its boxes can
+move per episode, the scene vector e normalised by its domain is the observation's last
+entries, and the scene reward of 002 (`actors/scene_reward.py`) is added to the imitation
+reward. Each episode's e is drawn uniformly in the domain (`scene_randomise`) unless it is
+fixed by `set_scene(e)` or given in `reset(options={"scene": e})`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
+import copy
+import os
 
 import gymnasium as gym
 import mujoco
 import numpy as np
 
 from actors.actions import ActionMapper
+from actors.box_arena import BoxArena, scene_humanoid
 from actors.falls import FallDetector
 from actors.features import FeatureExtractor, RewardFeatures, observation_dim, update_kinematics
 from actors.humanoid import Humanoid, PhysicsConfig
@@ -33,6 +44,7 @@ from actors.reward import NUM_TERMS, ImitationReward, RewardConfig
 from actors.reward import TERM_NAMES as REWARD_TERM_NAMES
 from actors.reward_movingcam import TERM_NAMES as MOVINGCAM_TERM_NAMES
 from actors.root_sync import RootSync
+from actors.scene_reward import SCENE_LIMB_LINKS, SceneReward
 from actors.state import StateLayout
 
 INIT_STRATEGIES = ("fsi", "rsi", "state")
@@ -55,10 +67,14 @@ class EnvConfig:
     mode: str = field(default="sfv", metadata={"choices": ENV_MODES, "help": "sfv: DeepMimic/SFV imitation of the whole reference, root path included; movingcam: the dynamic-camera paper's tracking (002 §5: joint angles, orientation hint, contacts; the root path is left to physics, see actors/movingcam.py)"})
     movingcam: MovingcamConfig = field(default_factory=MovingcamConfig, metadata={"help": "the movingcam mode's reward and termination"})
     state_space: str = field(default="rotvec", metadata={"choices": ("rotvec", "qpos"), "help": "coordinates of the initial-state vectors ASI learns a Gaussian over: rotvec (rotations as rotation vectors, 66-D) or qpos (SFV's raw qpos[2:] + qvel, 75-D, quaternion entries perturbed one by one)"})
+    scene: str | None = field(default=None, metadata={"help": "scene file (YAML, boxes along the clip's initial heading: actors/scene.py) put on the floor; the scene vector joins the observation and 002's scene reward the reward; none: the flat floor"})
+    scene_randomise: bool = field(default=True, metadata={"help": "draw each episode's box positions and heights uniformly in the scene file's domains (002 section 5.3: the value function must generalise over the scene); off: the file's values"})
 
     def __post_init__(self):
         if self.ground_contact_links is not None:
             object.__setattr__(self, "ground_contact_links", tuple(self.ground_contact_links))
+        if self.scene is not None:  # absolute: workers, renders and resumes may run elsewhere
+            object.__setattr__(self, "scene", os.path.abspath(self.scene))
         object.__setattr__(self, "reference_obs_steps", tuple(int(k) for k in self.reference_obs_steps))
         if isinstance(self.movingcam, dict):  # from a saved run config
             object.__setattr__(self, "movingcam", MovingcamConfig(**self.movingcam))
@@ -91,8 +107,10 @@ class ImitationEnv(gym.Env):
     def __init__(self, motion: ReferenceMotion, config: EnvConfig = EnvConfig(), humanoid: Humanoid | None = None, track: ReferenceTrack | None = None):
         self.config = config
         self.motion = motion
-        self.humanoid = humanoid or Humanoid(config.physics)
-        self.model = self.humanoid.model
+        self.humanoid = humanoid or scene_humanoid(config.physics, config.scene, motion)
+        self.box_arena = self.humanoid.arena if isinstance(self.humanoid.arena, BoxArena) else None
+        # With boxes each env moves its own (the model is what set_scene edits).
+        self.model = self.humanoid.model if self.box_arena is None else copy.copy(self.humanoid.model)
         self.data = mujoco.MjData(self.model)
         self.substeps = config.substeps
         self.track = track or ReferenceTrack(motion, self.humanoid, 1.0 / config.control_hz, config.horizon_s)
@@ -102,13 +120,31 @@ class ImitationEnv(gym.Env):
         self.reward_fn = ImitationReward(config.reward, self.humanoid.joint_dof_adr)
         # movingcam mode: 002's reward, termination and root-free observation (None in SFV's mode).
         self.movingcam = MovingcamTracking(self.track, self.humanoid, config.movingcam, 1, config.reference_obs_steps) if config.root_free else None
-        self.obs_dim = observation_dim(len(config.reference_obs_steps))
+        feature_dim = observation_dim(len(config.reference_obs_steps))
+        self.scene = None if self.box_arena is None else self.box_arena.scene
+        scene_dim = 0 if self.scene is None else self.scene.vector_dim
+        self.obs_dim = feature_dim + scene_dim
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self.obs_dim,), np.float32)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
         self.state_dim = self.layout.state_dim
         # Per-step buffers: the hot path writes into these instead of allocating.
         self._ctrl = self.data.ctrl.reshape(1, -1)  # one view kept: MjData hands out a new array per access
         self._obs = np.zeros((1, self.obs_dim), dtype=np.float64)
+        self._obs_features = self._obs if not scene_dim else self._obs[:, :feature_dim]  # a view kept: FeatureExtractor caches by identity
+        # The scene vector e of this episode and e over its domain (the observation's tail).
+        self.scene_vector = np.zeros(scene_dim)
+        self.scene_obs = np.zeros(scene_dim)
+        self._fixed_scene: np.ndarray | None = None
+        self.scene_reward = None if self.scene is None else SceneReward.for_track(self.track, self.scene, self.box_arena.frame)
+        self.scene_limbs = self.humanoid.body_ids[SCENE_LIMB_LINKS] - 1  # rows of FeatureExtractor.pos
+        # The boxes' geom ids (empty on the flat floor), for an obstacle-collision termination.
+        self.obstacle_geom_ids: tuple[int, ...] = () if self.box_arena is None else self.box_arena.box_geom_ids(self.model)
+        if self.movingcam is not None:
+            self.movingcam.set_obstacles(self.obstacle_geom_ids)
+        if self.scene is not None:
+            self._fixed_scene = self.scene.vector()  # the file's boxes until the first reset
+            self._place_scene(None)
+            self._fixed_scene = None
         self.fall_detector = FallDetector.for_clip(self.humanoid, motion.name, config.ground_contact_links)
         self.root_sync = RootSync(self.track, 1, config.sync_root_per_cycle and not config.root_free)
         self.reference_obs = ReferenceObservation(self.track, 1, () if config.root_free else config.reference_obs_steps)
@@ -144,6 +180,8 @@ class ImitationEnv(gym.Env):
         self._max_steps = self.track.episode_steps(start)
         if self.horizon_cap_steps is not None:  # a curriculum's limit truncates (the value bootstraps), never terminates
             self._max_steps = max(1, min(self._max_steps, self.horizon_cap_steps))
+        if self.scene is not None:
+            self._place_scene(options.get("scene"))
         mujoco.mj_resetData(self.model, self.data)
         if init == "state":
             state = np.asarray(options["state"], dtype=np.float64)
@@ -181,13 +219,16 @@ class ImitationEnv(gym.Env):
             reward = float(self.movingcam.rewards(self._row_buf, features, features.reward_features(yaw), ref, self._terms,
                                                   self.config.early_termination)[0])
             fell = fell or bool(self.movingcam.terminated[0])
+        if self.scene_reward is not None:
+            reward += float(self.scene_rewards(features, self._row_buf, self.scene_vector[None])[0])
         if diverged or (fell and self.config.zero_reward_on_fall):
             reward = 0.0
         terminated, truncated = self.ending(fell, diverged)
-        obs = features.observations(self.track.phase[row], self._obs, yaw, self.reference_obs.gather(self._row_buf, self.root_sync.offset))
+        features.observations(self.track.phase[row], self._obs_features, yaw, self.reference_obs.gather(self._row_buf, self.root_sync.offset))
         if self.movingcam is not None:
-            self.movingcam.observe(self._row_buf, obs)
-        return obs[0].astype(np.float32), reward, terminated, truncated, {}
+            self.movingcam.observe(self._row_buf, self._obs_features)
+        self._obs[0, self._obs_features.shape[1]:] = self.scene_obs
+        return self._obs[0].astype(np.float32), reward, terminated, truncated, {}
 
     def simulate(self) -> tuple[bool, bool]:
         """Advance one control step with `data.ctrl` already set: (fell, diverged).
@@ -209,6 +250,47 @@ class ImitationEnv(gym.Env):
         horizon (or the clip's end) truncates it."""
         terminated = fell or diverged
         return terminated, (not terminated) and self._step >= self._max_steps
+
+    # ------------------------------------------------------------------------ scene
+    def set_scene(self, e) -> None:
+        """Fix the scene vector e ([along, height] per box) for this and later episodes
+        (None: back to the config's per-episode rule). Moves the boxes now."""
+        if self.scene is None:
+            raise ValueError("set_scene: this env has no scene (EnvConfig.scene is None)")
+        self._fixed_scene = None if e is None else self._checked_scene(e)
+        self._place_scene(None)
+
+    def _checked_scene(self, e) -> np.ndarray:
+        e = np.asarray(e, dtype=np.float64).reshape(-1)
+        if e.shape != (self.scene.vector_dim,) or not np.isfinite(e).all():
+            raise ValueError(f"a scene vector is {self.scene.vector_dim} finite numbers ([along, height] per box), got shape {e.shape}")
+        return e
+
+    def _place_scene(self, given) -> None:
+        if given is not None:
+            e = self._checked_scene(given)
+        elif self._fixed_scene is not None:
+            e = self._fixed_scene
+        elif self.config.scene_randomise:
+            e = self.scene.sample(self.np_random)
+        else:
+            e = self.scene.vector()
+        self.scene_vector[:] = e
+        self.scene_obs[:] = self.scene.normalise(e)
+        self.box_arena.set_scene(self.model, e)
+
+    def scene_rewards(self, features: FeatureExtractor, rows: np.ndarray, e: np.ndarray) -> np.ndarray:
+        """002's r_scene of the captured rows of `features` at reference `rows`, scenes e (B, 2K)."""
+        return self.scene_reward.batch(rows, features.pos[:, self.scene_limbs], features.root_xmat[:, ::3],
+                                       features.com, features.com_vel, e)
+
+    def max_episode_return(self) -> float:
+        """The most this episode can earn: the imitation reward's maximum every step, plus
+        the scene reward's where the reference touches or flies to a box."""
+        total = self.max_reward * self._max_steps
+        if self.scene_reward is not None:
+            total += float(self.scene_reward.max_rewards[self._start + 1:self._start + 1 + self._max_steps].sum())
+        return total
 
     # ---------------------------------------------------------------------- queries
     @property
@@ -266,7 +348,8 @@ class ImitationEnv(gym.Env):
     def _observe(self) -> np.ndarray:
         self._row_buf[0] = self.row
         reference = self.reference_obs.gather(self._row_buf, self.root_sync.offset)
-        obs = self.features.observation(self.data, self.track.phase[self.row], self._obs, reference)
+        self.features.observation(self.data, self.track.phase[self.row], self._obs_features, reference)
         if self.movingcam is not None:
-            self.movingcam.observe(self._row_buf, self._obs)
-        return obs
+            self.movingcam.observe(self._row_buf, self._obs_features)
+        self._obs[0, self._obs_features.shape[1]:] = self.scene_obs
+        return self._obs[0]

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from actors.features import FeatureExtractor, RewardFeatures
-from actors.humanoid import Humanoid
+from actors.box_arena import scene_humanoid
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.initial_states import BufferedStarts
 from actors.motion import ReferenceMotion
@@ -48,7 +48,7 @@ class EpisodeLog:
 
 class VectorImitationEnv:
     def __init__(self, motion: ReferenceMotion, config: EnvConfig, num_envs: int, starts: BufferedStarts, seed: int = 0, gamma: float = 0.95):
-        humanoid = Humanoid(config.physics)
+        humanoid = scene_humanoid(config.physics, config.scene, motion)
         track = ReferenceTrack(motion, humanoid, 1.0 / config.control_hz, config.horizon_s)
         self.envs = [ImitationEnv(motion, config, humanoid, track) for _ in range(num_envs)]
         self.num_envs = num_envs
@@ -92,11 +92,20 @@ class VectorImitationEnv:
         self.reference_obs = ReferenceObservation(track, num_envs, () if config.root_free else config.reference_obs_steps)
         # movingcam mode (002): its reward, termination and root-free observation for the batch.
         self.movingcam = MovingcamTracking(track, humanoid, config.movingcam, num_envs, config.reference_obs_steps) if config.root_free else None
+        if self.movingcam is not None:
+            self.movingcam.set_obstacles(first.obstacle_geom_ids)
+        # A scene: every env's e and normalised e as rows of one array (the envs write their rows).
+        self.scene_reward = first.scene_reward
+        self._obs64_features = self._obs64[:, :obs_dim - first.scene_vector.size]
+        self.scene_vectors = np.stack([env.scene_vector for env in self.envs])
+        self.scene_obs = np.stack([env.scene_obs for env in self.envs])
+        for i, env in enumerate(self.envs):
+            env.scene_vector, env.scene_obs = self.scene_vectors[i], self.scene_obs[i]
 
     @property
     def max_reward(self) -> float:
-        """The most one control step can earn (the mode's reward, scene included)."""
-        return self.envs[0].max_reward if self.movingcam is None else self.movingcam.max_reward
+        """The most one control step can earn from the mode's reward (a scene's adds per row)."""
+        return self.envs[0].max_reward
 
     def set_horizon(self, seconds: float | None) -> None:
         """Cap the length of episodes that start from now on (an episode-length curriculum);
@@ -159,13 +168,16 @@ class VectorImitationEnv:
             rewards = self.movingcam.rewards(self._rows, features, features.reward_features(yaw), reference, self._terms,
                                              self.early_termination)
             self._fell |= self.movingcam.terminated
+        if self.scene_reward is not None:
+            rewards += self.envs[0].scene_rewards(features, self._rows, self.scene_vectors)
         rewards[self._diverged] = 0.0
         if self.zero_reward_on_fall:
             rewards[self._fell] = 0.0
         self.rewards[:] = rewards
-        features.observations(track.phase[self._rows], self._obs64, yaw, self.reference_obs.gather(self._rows, self.root_sync.offset))
+        features.observations(track.phase[self._rows], self._obs64_features, yaw, self.reference_obs.gather(self._rows, self.root_sync.offset))
         if self.movingcam is not None:
-            self.movingcam.observe(self._rows, self._obs64)
+            self.movingcam.observe(self._rows, self._obs64_features)
+        self._obs64[:, self._obs64_features.shape[1]:] = self.scene_obs
         self.final_obs[:] = self._obs64
         self._ret += rewards
         self._disc += self._discount * rewards
@@ -181,7 +193,7 @@ class VectorImitationEnv:
 
     def _record(self, i: int, fell: bool) -> None:
         env = self.envs[i]
-        max_return = self.max_reward * env.max_episode_steps
+        max_return = env.max_episode_return()
         log = self.episodes
         log.returns.append(self._ret[i])
         log.normalized_returns.append(self._ret[i] / max_return)

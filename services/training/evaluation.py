@@ -179,7 +179,7 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
                 if len(schedule.starts) == pushes:
                     push_episodes += 1
                     push_survivors += not (fell or diverged)
-            returns[k] = total / (env.max_reward * limit)
+            returns[k] = total / env.max_episode_return()  # = max_reward x limit without a scene
             lengths[k] = steps
             falls[k] = fell or diverged
             divergences += diverged

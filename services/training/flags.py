@@ -115,6 +115,7 @@ ALIASES = (
     Alias("--reference-obs", ("env.reference_obs_steps",), _int_list(True, True), metavar="K,K",
           help="control steps ahead at which the policy observes the reference root (default 1,15); 'none' for SFV's observation"),
     Alias("--state-space", ("env.state_space",)),
+    Alias("--scene", ("env.scene",), metavar="FILE.yaml"),
     Alias("--asi-std-scale", ("asi_initial_std_scale",), _positive(float)),
     Alias("--curriculum-samples", ("curriculum_samples",), _positive(int)),
     Alias("--no-root-sync", ("env.sync_root_per_cycle",), const=False,
