@@ -90,6 +90,11 @@ class VectorImitationEnv:
         self._obs64 = np.zeros((num_envs, obs_dim))
         self.reference_obs = ReferenceObservation(track, num_envs, config.reference_obs_steps)
 
+    @property
+    def rows(self) -> np.ndarray:
+        """Each env's current reference row, the frame of its current observation (a view)."""
+        return self._rows
+
     def set_horizon(self, seconds: float | None) -> None:
         """Cap the length of episodes that start from now on (an episode-length curriculum);
         None lifts the cap. Running episodes keep the limit they started with."""
