@@ -174,3 +174,28 @@ def test_training_with_adaptive_sampling_logs_its_coverage(tmp_path):
     assert sum(row["tuple_sampling/collected_per_frame_bin"]) == 256
     assert 0.0 < row["tuple_sampling/frame_entropy"] <= 1.0
     assert row["charts/gradient_steps"] == 2.0  # 128 used tuples in minibatches of 64
+
+
+# ------------------------------------------------------------------- the benchmark's read-back
+def test_the_benchmark_reads_samples_to_nr_and_coverage_from_metrics(tmp_path):
+    from tests.bench_scripts import load_bench_script
+
+    bench = load_bench_script("adaptive_sampling")
+    rng = np.random.default_rng(0)
+    rows, used_total = [], np.zeros(4, int)
+    for i, nr in enumerate([0.04, None, 0.07, None, 0.12]):
+        used = rng.integers(0, 50, 4)
+        used_total += used
+        row = {"samples": 1000 * (i + 1), "samples_per_s": 500.0, "sampling_samples_per_s": 1000.0,
+               "tuple_sampling/used_per_frame_bin": used.tolist(), "tuple_sampling/collected_per_frame_bin": [50] * 4,
+               "tuple_sampling/frame_entropy": 0.9, "tuple_sampling/frame_count_min": 1.0, "tuple_sampling/frame_count_max": 9.0}
+        if nr is not None:
+            row.update({"eval/normalized_return": nr, "eval/fall_rate": 1.0, "eval/seconds": 0.5})
+        rows.append(row)
+    (tmp_path / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    result = bench.arm_result(tmp_path, thresholds=(0.05, 0.1, 0.5))
+    assert result["samples_to_nr"] == {"0.05": 3000, "0.1": 5000, "0.5": None}
+    assert result["train_s_to_nr"]["0.05"] == pytest.approx(6.0)  # three iterations of 1000 samples at 500/s
+    assert result["update_s"] == pytest.approx(5 * (2.0 - 1.0)) and result["eval_s"] == pytest.approx(1.5)
+    assert result["frame_bins"]["used"] == used_total.tolist()
+    assert result["tuples_used_fraction"] == pytest.approx(used_total.sum() / 1000)
