@@ -125,9 +125,11 @@ class RolloutWorker:
             "rewards": np.empty((steps, m), np.float32),
             "terminated": np.empty((steps, m), bool),
             "truncated": np.empty((steps, m), bool),
+            "frames": np.empty((steps, m), np.int32),  # reference row of obs[t]: adaptive tuple sampling's frame
         }
         for t in range(steps):
             batch["obs"][t] = env.obs
+            batch["frames"][t] = env.rows
             self.policy.act(env.obs, self.rng, out_actions=batch["actions"][t], out_logp=batch["logp"][t])
             _, rewards, terminated, truncated, final_obs = env.step(batch["actions"][t])
             batch["next_obs"][t] = final_obs

@@ -107,6 +107,11 @@ class VectorImitationEnv:
         """The most one control step can earn from the mode's reward (a scene's adds per row)."""
         return self.envs[0].max_reward
 
+    @property
+    def rows(self) -> np.ndarray:
+        """Each env's current reference row, the frame of its current observation (a view)."""
+        return self._rows
+
     def set_horizon(self, seconds: float | None) -> None:
         """Cap the length of episodes that start from now on (an episode-length curriculum);
         None lifts the cap. Running episodes keep the limit they started with."""

@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from learner.errors import ConfigError
+from learner.tuple_sampling import TUPLE_SAMPLING_MODES
 
 
 @dataclass
@@ -90,6 +91,11 @@ class PPOConfig:
         metadata={"help": "stop updating the observation normaliser after this many samples (DeepMimic: 1e6)"},
     )
     seed: int = field(default=0, metadata={"help": "seed of the learner's network init and minibatch shuffling"})
+    tuple_sampling: str = field(
+        default="all",
+        metadata={"choices": TUPLE_SAMPLING_MODES, "help": "tuples each update trains on: 'all' collected, or 'adaptive' (paper 002 §5.2, eq. 13: per episode tuples_per_episode consecutive ones, the start drawn with P(t) ~ 1/(n_t + 1) over frames; learner/tuple_sampling.py)"},
+    )
+    tuples_per_episode: int = field(default=32, metadata={"help": "consecutive tuples each episode segment contributes under adaptive tuple sampling (paper 002: 32)"})
 
     def __post_init__(self) -> None:
         self.policy_hidden = tuple(int(h) for h in self.policy_hidden)
@@ -101,7 +107,9 @@ class PPOConfig:
         problems = []
         if self.optimizer not in ("adam", "sgd"):
             problems.append(f"optimizer must be 'adam' or 'sgd', got {self.optimizer!r}")
-        for name in ("batch_size", "minibatch_size", "update_epochs"):
+        if self.tuple_sampling not in TUPLE_SAMPLING_MODES:
+            problems.append(f"tuple_sampling must be one of {', '.join(TUPLE_SAMPLING_MODES)}, got {self.tuple_sampling!r}")
+        for name in ("batch_size", "minibatch_size", "update_epochs", "tuples_per_episode"):
             if getattr(self, name) < 1:
                 problems.append(f"{name} must be >= 1")
         for name in ("gamma", "gae_lambda", "td_lambda"):

@@ -6,11 +6,15 @@ One `PPOLearner.update(batch)` call:
 2. evaluates V(obs) and V(next_obs) (the latter only where it is not the next row's obs)
    with the current value network and computes GAE(lambda)
    advantages (policy) and TD(lambda) returns (value targets),
-3. normalises the advantages over the whole batch and clips them to +-adv_clip,
+3. keeps only the tuples of ``batch["update_mask"]`` when the batch has one (adaptive tuple
+   sampling, paper 002 §5.2, `learner/tuple_sampling.py`: advantages and targets are computed
+   on the full trajectories first), normalises the advantages over the (kept) batch and clips
+   them to +-adv_clip,
 4. runs `update_epochs` passes of shuffled minibatches of the clipped surrogate objective
    plus the value regression (separate networks, separate optimisers), stopping early if
    the approximate KL exceeds `target_kl`,
-5. and only then folds the batch's observations into the observation normaliser.
+5. and only then folds the batch's observations into the observation normaliser (all of
+   them, masked or not: it estimates the states the policy meets).
 
 The normaliser is updated *after* the epochs so that the learner sees the batch exactly
 as the workers' policy did: the first minibatch starts at ratio 1, and approx_kl measures
@@ -103,7 +107,20 @@ def validate_batch(batch: dict[str, np.ndarray], obs_dim: int, act_dim: int) -> 
         if not np.isfinite(array).all():
             raise NonFiniteError(f"rollout batch: batch[{name!r}] contains NaN or inf")
         checked[name] = np.ascontiguousarray(array, dtype=np.float32)
+    if "update_mask" in batch:
+        checked["update_mask"] = _checked_mask(batch["update_mask"], rewards_shape)
     return checked
+
+
+def _checked_mask(mask, shape: tuple[int, ...]) -> np.ndarray:
+    """The optional (T, N) bool mask of the tuples the update trains on (all others only feed
+    the advantages of the tuples before them)."""
+    mask = np.asarray(mask)
+    if mask.shape != shape or mask.dtype != bool:
+        raise BatchFormatError(f"rollout batch: batch['update_mask'] must be a bool array of shape {shape}, got {mask.dtype} {mask.shape}")
+    if not mask.any():
+        raise BatchFormatError("rollout batch: batch['update_mask'] selects no tuple")
+    return mask
 
 
 def _require_finite(value: float | np.ndarray, what: str) -> None:
@@ -198,14 +215,19 @@ class PPOLearner:
         _require_finite(value_targets, "TD(lambda) value targets")
         if cfg.reward_max is not None:  # DeepMimic's val_min / val_max: a return lies in [0, r_max / (1 - gamma)]
             np.clip(value_targets, 0.0, cfg.reward_max / max(1.0 - cfg.gamma, 1e-8), out=value_targets)
+        kept = None if "update_mask" not in arrays else np.flatnonzero(arrays["update_mask"].ravel())
+        if kept is not None:  # the selected tuples only, their advantages from the full trajectories
+            advantages, value_targets = advantages[kept], value_targets[kept]
         if cfg.norm_adv and advantages.size > 1:
             advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
             advantages = np.clip(advantages, -cfg.adv_clip, cfg.adv_clip)
 
+        columns = (obs_norm, self._to_tensor(arrays["actions"].reshape(steps * envs, self.act_dim)), self._to_tensor(arrays["logp"].ravel()))
+        if kept is not None:
+            rows = torch.from_numpy(kept).to(self.device)
+            columns = tuple(column[rows] for column in columns)
         minibatches = self._minibatches(
-            obs_norm,
-            self._to_tensor(arrays["actions"].reshape(steps * envs, self.act_dim)),
-            self._to_tensor(arrays["logp"].ravel()),
+            *columns,
             self._to_tensor(advantages.astype(np.float32)),
             self._to_tensor(value_targets.astype(np.float32)),
         )
@@ -222,7 +244,7 @@ class PPOLearner:
         if not fit_normalizer_first:
             self.normalizer.update(obs)
         metrics = {f"losses/{key}": total / gradient_steps for key, total in sums.items()}
-        metrics["losses/explained_variance"] = explained_variance(values.ravel(), value_targets)
+        metrics["losses/explained_variance"] = explained_variance(values.ravel() if kept is None else values.ravel()[kept], value_targets)
         metrics["charts/gradient_steps"] = float(gradient_steps)
         metrics["charts/normalizer_samples"] = float(self.normalizer.count)
         return metrics

@@ -29,6 +29,7 @@ from actors.rollout_worker import RolloutWorker, WorkerSpec
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
 from learner.errors import NonFiniteError, SfvError
 from learner.ppo import PPOLearner
+from learner.tuple_sampling import select_tuples
 from services.training.asi_connection import ASIConnection
 from services.training.config import TrainConfig
 from services.training.run_dir import (
@@ -113,6 +114,7 @@ class Trainer:
         if versions != {version}:
             raise SfvError(f"internal: a batch mixes policy versions {sorted(versions)} (expected {version})")
         batch = {k: np.concatenate([r[k] for r in results], axis=1) for k in TRAJECTORY_KEYS}
+        batch["frames"] = np.concatenate([r["frames"] for r in results], axis=1)
         for k in results[0]:
             if k.startswith("episode_"):
                 batch[k] = np.concatenate([r[k] for r in results])
@@ -139,6 +141,7 @@ class Trainer:
         checkpoint = self._prepare_run_dir()
         motion = load_motion(config.motion)
         env, ref_states, ref_phases = self._reference_table(motion)
+        self.track_rows = env.track.rows  # the frame range of adaptive tuple sampling's coverage
         _set_torch_threads(config)
         learner = PPOLearner(env.observation_space.shape[0], env.action_space.shape[0], config.ppo, device=config.device)
         asi_version = 0
@@ -190,6 +193,7 @@ class Trainer:
             results = self._collect(learner.policy_weights(), version, steps)
             batch = self._merge(results, version)
             t_sample = time.perf_counter() - t0
+            coverage = self._select_tuples(batch)
             losses = self._update(learner, batch)
             n = batch["rewards"].size
             samples_before = self.samples
@@ -197,6 +201,7 @@ class Trainer:
             self.iteration += 1
             asi_version = max(asi_version, batch["asi_version"])
             record = self._record(batch, losses, n, time.perf_counter() - t0, t_sample, asi_version)
+            record.update(coverage)
             if evaluator.due(samples_before, self.samples, last=self.samples >= config.samples):
                 try:  # the current weights on strict episodes; figures land in metrics.jsonl and TensorBoard
                     record.update(evaluator(learner.policy_weights()))
@@ -222,6 +227,14 @@ class Trainer:
         elapsed = time.perf_counter() - start_time
         record["overall_samples_per_s"] = (self.samples - start_samples) / max(elapsed, 1e-9)
         return record
+
+    def _select_tuples(self, batch: dict) -> dict:
+        """The tuples this update trains on (`--ppo.tuple-sampling`, paper 002 §5.2) and their
+        coverage of the frames; the draw's seed follows from the run's seed and the iteration,
+        so a resumed run draws as the uninterrupted one would."""
+        ppo = self.config.ppo
+        rng = np.random.default_rng([self.config.seed, self.iteration, 13])
+        return select_tuples(batch, ppo.tuple_sampling, ppo.tuples_per_episode, rng, self.track_rows)
 
     def _update(self, learner: PPOLearner, batch: dict) -> dict:
         try:
