@@ -48,15 +48,21 @@ def plan_windows(num_frames: int, scene, max_objects: int = MAX_OBJECTS) -> list
     return split_windows(num_frames, [(int(f), i) for i, f in enumerate(frames)], max_objects)
 
 
-def fit_windows_scene(runs, scene, starts: int = 4, seed: int = 0) -> FitResult:
-    """SLSQP on eq. 14 with every window's value network and rollouts."""
+def window_terms(runs) -> list[WindowTerms]:
+    """Each trained window's value network and its rollouts' observations (those that reached
+    the control end), the terms of eq. 14."""
     from services.scene_fit.value import ValueFunction
 
     terms = []
     for run in runs:
-        rollouts = run.rollouts().handover()  # the episodes that reached the control end
+        rollouts = run.rollouts().handover()
         terms.append(WindowTerms(ValueFunction.from_run(run.train_dir), rollouts.start_obs, rollouts.end_obs))
-    return fit_scene(terms, scene_contract.scene_obs(scene), scene_contract.scene_vector(scene),
+    return terms
+
+
+def fit_windows_scene(runs, scene, starts: int = 4, seed: int = 0) -> FitResult:
+    """SLSQP on eq. 14 with every window's value network and rollouts."""
+    return fit_scene(window_terms(runs), scene_contract.scene_obs(scene), scene_contract.scene_vector(scene),
                      scene_contract.scene_bounds(scene), starts=starts, seed=seed)
 
 
