@@ -86,9 +86,8 @@ def prepare_window(run: WindowRun, clip: ReferenceMotion, scene, previous: Windo
     motion = window_motion(clip, run.window, root_xy)
     save_motion(motion, run.motion_path)
     if scene is not None:
-        placed, shift = window_scene(scene, clip, motion)
+        placed, run.scene_shift = window_scene(scene, clip, motion)
         scene_contract.write_scene_yaml(placed, run.scene_path)
-        run.scene_shift = shift
     if previous is None:
         return motion, None
     path = run.directory / "handover.npz"
