@@ -2,7 +2,7 @@
 and "Table 2 of 002 in spirit" (the initial-guess scene against the fitted one).
 
     python bench/scene_fit.py [--motion bench/scenes/box_jump.npz] [--scene bench/scenes/box_jump.yaml]
-                              [--samples 1500000] [--workers 2] [--envs-per-worker 16] [--out-dir bench/results/scene_fit_run]
+                              [--samples 1000000] [--workers 2] [--envs-per-worker 16] [--out-dir runs/scene_fit_box]
                               [--torch-threads 1] [--result bench/results/scene_fit.json]
 
 The clip is the scene engineer's synthetic box jump (`bench/box_clip.py`: DeepMimic's jump
@@ -63,14 +63,14 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--motion", default=str(HERE / "scenes" / "box_jump.npz"))
     parser.add_argument("--scene", default=str(HERE / "scenes" / "box_jump.yaml"))
-    parser.add_argument("--samples", type=int, default=1_500_000, help="training samples per window")
+    parser.add_argument("--samples", type=int, default=1_000_000, help="training samples per window")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--envs-per-worker", type=int, default=16)
     parser.add_argument("--init", default="rsi", choices=("asi", "rsi", "fsi"))
     parser.add_argument("--runner", default="processes", choices=("ray", "in_process", "processes"))
     parser.add_argument("--torch-threads", type=int, default=1)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out-dir", default=str(HERE / "results" / "scene_fit_run"))
+    parser.add_argument("--out-dir", default="runs/scene_fit_box", help="the windows' run directories (kept: a rerun resumes)")
     parser.add_argument("--result", default=str(HERE / "results" / "scene_fit.json"))
     args = parser.parse_args(argv)
 
