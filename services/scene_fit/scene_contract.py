@@ -21,6 +21,10 @@ from learner.errors import SfvError
 from services.scene_fit.fit import SceneObs
 
 SCENE_ENV_FIELD = "scene"  # EnvConfig's field holding the scene file (actors' box arena)
+# EnvConfig's switch of the scene loader's start-pose check. A window after the first starts
+# where the character meets a box (by construction), which that check of the user's file
+# refuses; the user's file was checked against the clip's first frame already.
+START_CHECK_FIELD = "scene_check_start_pose"
 MOVINGCAM_MODE = "movingcam"
 
 
@@ -84,11 +88,15 @@ def movingcam_env(env_config, scene_path: str | None):
     return env_config if scene_path is None else with_scene_file(env_config, scene_path)
 
 
-def with_scene_file(env_config, scene_path):
+def with_scene_file(env_config, scene_path, check_start_pose: bool = True):
     """The env config with its boxes from `scene_path` (drawn per episode in training)."""
-    if SCENE_ENV_FIELD not in {f.name for f in dataclasses.fields(env_config)}:
+    fields = {f.name for f in dataclasses.fields(env_config)}
+    if SCENE_ENV_FIELD not in fields:
         raise SfvError("--scene needs the box arena in the env (EnvConfig.scene, issue 15), which this build lacks")
-    return dataclasses.replace(env_config, **{SCENE_ENV_FIELD: str(scene_path)})
+    changes = {SCENE_ENV_FIELD: str(scene_path)}
+    if START_CHECK_FIELD in fields:
+        changes[START_CHECK_FIELD] = check_start_pose
+    return dataclasses.replace(env_config, **changes)
 
 
 def set_env_scene(env, e) -> None:

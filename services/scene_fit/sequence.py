@@ -75,7 +75,7 @@ def window_config(base: TrainConfig, run: WindowRun, handover_path: Path | None)
     config.motion, config.out, config.job_id = str(run.motion_path), str(run.train_dir), None
     config.handover_states = None if handover_path is None else str(handover_path)
     if run.scene_path is not None:
-        config.env = scene_contract.with_scene_file(config.env, run.scene_path)
+        config.env = scene_contract.with_scene_file(config.env, run.scene_path, check_start_pose=run.window.index == 0)
     return config
 
 
