@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from actors.imitation_env import EnvConfig
 from actors.handover_starts import HandoverStarts
+from actors.imitation_env import EnvConfig
 from actors.initial_states import BufferedStarts, InitialStates, ReferenceStarts
 from actors.motion import ReferenceMotion
 from actors.vector_env import VectorImitationEnv

@@ -111,6 +111,9 @@ def main(argv=None) -> int:
         "training": [_window_record(r) for r in outcome.runs],
         "wall_s": time.perf_counter() - started,
     }
+    from services.scene_fit.outputs import render_simulation
+
+    record["video"] = str(render_simulation(outcome, Path(args.out_dir) / "simulated_fitted.mp4"))
     atomic_write_json(args.result, record, sort_keys=False)
     print(f"truth {truth.round(3).tolist()}  guess {guess.round(3).tolist()}  fitted {fitted.round(3).tolist()}  "
           f"MPJPE guess/fitted/true {record['table2']['initial_guess_scene']['mpjpe_mm']:.0f}/"

@@ -57,24 +57,6 @@ def _reconstruct(args, out: Path):
     return save_motion(motion, out / "motion.npz")
 
 
-def render_outcome(outcome, video: Path, motion_path: Path, out: Path) -> str:
-    """The simulation in its fitted scene beside the video (the window-0 env's model, boxes placed)."""
-    from actors.imitation_env import ImitationEnv
-    from actors.motion_io import load_motion
-    from services.reconstruction.video_extras import video_start_frame
-    from services.render.simulation_video import render_simulation_video
-    from services.scene_fit import scene_contract
-    from services.training.run_dir import read_run_config
-
-    first = outcome.runs[0]
-    env = ImitationEnv(load_motion(str(first.motion_path)), read_run_config(first.train_dir).env)
-    if outcome.scene_vector is not None:
-        scene_contract.set_env_scene(env, first.window_e(outcome.scene_vector))
-    start = video_start_frame(load_motion(str(motion_path)).extras)
-    render_simulation_video(env.model, outcome.simulated.qpos, outcome.simulated.control_hz, out / VIDEO_FILE, video, start)
-    return str(out / VIDEO_FILE)
-
-
 def run_moving(args) -> int:
     import ray
 
@@ -101,7 +83,12 @@ def run_moving(args) -> int:
     finally:
         if started_ray:
             ray.shutdown()
-    video = render_outcome(outcome, args.video, motion_path, out)
+    from actors.motion_io import load_motion
+    from services.reconstruction.video_extras import video_start_frame
+    from services.scene_fit.outputs import render_simulation
+
+    first = video_start_frame(load_motion(str(motion_path)).extras)  # the motion may begin later in the video
+    video = str(render_simulation(outcome, out / VIDEO_FILE, args.video, first))
     summary = outcome.summary
     print(json.dumps({"motion": str(motion_path), "simulated": summary["files"]["motion"], "video": video,
                       "windows": len(summary["windows"]), "scene": None if outcome.scene_vector is None else outcome.scene_vector.tolist(),

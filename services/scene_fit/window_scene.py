@@ -23,7 +23,7 @@ from actors.motion import ReferenceMotion
 
 def window_scene(scene, clip: ReferenceMotion, motion: ReferenceMotion):
     """(scene in `motion`'s frame, shift of its scene vector from the clip's)."""
-    from actors.scene import SceneFrame, Scene
+    from actors.scene import Scene, SceneFrame
 
     clip_frame, frame = SceneFrame.of_motion(clip), SceneFrame.of_motion(motion)
     boxes, shift = [], []
