@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from actors.handover_starts import HandoverStarts
 from actors.imitation_env import EnvConfig
 from actors.initial_states import BufferedStarts, InitialStates, ReferenceStarts
 from actors.motion import ReferenceMotion
@@ -46,6 +47,8 @@ class WorkerSpec:
     start_batch: int = 64
     asi_tls_ca: str | None = None  # PEM root certificate of a TLS ASI server (a path readable on every node)
     asi_outage_s: float = 30.0  # how long drawing starts keeps retrying an unreachable ASI server
+    handover_states: np.ndarray | None = None  # (n, state_dim): a scene-fit window's starts at phase 0 (actors/handover_starts.py)
+    handover_share: float = 0.5  # share of episodes started from them
 
 
 class _ServerStarts:
@@ -86,7 +89,10 @@ class RolloutWorker:
             if spec.init == "asi":
                 raise ValueError("init 'asi' needs an ASI server address")
             source = ReferenceStarts(spec.init, self.rng)
-        self.env = VectorImitationEnv(spec.motion, spec.env, spec.num_envs, BufferedStarts(source, spec.start_batch), seed=self.seed * 1000, gamma=spec.gamma)
+        starts = BufferedStarts(source, spec.start_batch)
+        if spec.handover_states is not None:
+            starts = HandoverStarts(starts, spec.handover_states, spec.handover_share, np.random.default_rng([self.seed, 2]))
+        self.env = VectorImitationEnv(spec.motion, spec.env, spec.num_envs, starts, seed=self.seed * 1000, gamma=spec.gamma)
         self.policy: NumpyPolicy | None = None
         self._weights: dict | None = None
         self._started = False

@@ -3,6 +3,12 @@
 One Ray job graph on one Ray session: the pose tasks' track feeds the reconstruction task,
 whose motion (written to DIR/motion.npz) the training driver imitates with its rollout
 actors (run directory DIR/train).
+
+`--camera moving [--scene boxes.yaml]` (002 §5-6): the motion is written root-free, then
+`services/scene_fit` trains its windows' policies in 002's tracking mode (each window a run
+directory DIR/windows/w<n>/train with Ray rollout actors), fits the scene by SLSQP and rolls the
+policies out in it: DIR/simulated.npz, simulated.bvh, scene_fitted.yaml, scene_fit.json and
+simulated.mp4 (the simulation beside the video). `_moving_pipeline.py` has that path.
 """
 from __future__ import annotations
 
@@ -28,10 +34,29 @@ def register(sub) -> None:
     p.add_argument("--ray-address", default=None, help="join a Ray cluster; local Ray when absent")
     p.add_argument("--seed", type=int, default=TRAIN_DEFAULTS.seed, help="base seed of training")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--camera", choices=("static", "moving"), default="static",
+                   help="static: SFV's root path from the image (default); moving: root-free motion, 002's tracking, "
+                        "windows, scene fit and a final rollout (samples per window: --samples)")
+    p.add_argument("--scene", type=Path, default=None, help="with --camera moving: the boxes' scene file (YAML) whose "
+                   "positions and heights are fitted within their domains")
+    p.add_argument("--resume", action="store_true", help="with --camera moving: continue an interrupted run in --out "
+                   "(its motion.npz kept, finished windows kept, the window in progress from its checkpoint)")
     p.set_defaults(handler=run)
 
 
 def run(args) -> int:
+    if args.camera == "moving":
+        from services.commands._moving_pipeline import run_moving
+
+        return run_moving(args)
+    from learner.errors import SfvError
+
+    if args.scene is not None or args.resume:
+        raise SfvError(f"{'--scene' if args.scene is not None else '--resume'} needs --camera moving")
+    return run_static(args)
+
+
+def run_static(args) -> int:
     import dataclasses
 
     import ray

@@ -152,7 +152,8 @@ class Trainer:
             info = asi.create_job(ref_states, ref_phases)
             spec = WorkerSpec(motion, config.env, config.envs_per_worker, config.init, config.seed, config.ppo.gamma,
                               asi.address, config.job_id, asi.token, asi_tls_ca=config.asi_tls_ca,
-                              asi_outage_s=config.asi_outage_s)
+                              asi_outage_s=config.asi_outage_s, handover_states=_handover_states(config),
+                              handover_share=config.handover_share)
             self.runner = make_runner(config, self.worker_class, self.faults)
             self.runner.start(spec)
             metrics = MetricsLog(self.run_dir, resumed_at_samples=self.samples if checkpoint is not None else None)
@@ -294,6 +295,17 @@ class Trainer:
             plot_learning_curves([self.run_dir], self.run_dir / "learning_curve.png")
         except Exception as exc:  # a plot must never stop training
             log.warning("learning-curve plot failed: %s", exc)
+
+
+def _handover_states(config: TrainConfig) -> np.ndarray | None:
+    """The `states` of --handover-states (a scene-fit window's starts), or None."""
+    if config.handover_states is None:
+        return None
+    try:
+        with np.load(config.handover_states) as f:
+            return np.asarray(f["states"], np.float64)
+    except (OSError, KeyError, ValueError) as exc:
+        raise SfvError(f"{config.handover_states}: no hand-over states ({type(exc).__name__}: {exc})") from None
 
 
 def _load_error(path: Path) -> str:

@@ -1,0 +1,96 @@
+"""`sfv pipeline VIDEO --camera moving [--scene boxes.yaml]`: the moving-camera path (002 §5-6).
+
+pose (Ray tasks) -> reconstruction (a Ray task), written root-free with the video's cues
+(orientation hint, contacts) -> the windows' trainings (Ray rollout actors, one run directory
+per window) -> SLSQP scene fit -> final rollout in the fitted scene -> outputs and the MP4.
+Bad input is one line before any work: the scene file is read first (a box outside its
+domain), the video probed, and once the motion exists, an env of it is built with the scene
+(a box over the start pose; no contacts or orientation hint in movingcam mode) before training.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+from learner.errors import SfvError
+
+VIDEO_FILE = "simulated.mp4"
+
+
+def _base_config(args, scene_path):
+    from actors.imitation_env import EnvConfig
+    from services.scene_fit import scene_contract
+    from services.training.config import TrainConfig
+
+    base = TrainConfig(motion="", out="", workers=args.workers, envs_per_worker=args.envs_per_worker, init=args.init,
+                       samples=args.samples, seed=args.seed, ray_address=args.ray_address)
+    base.env = scene_contract.movingcam_env(EnvConfig(), None if scene_path is None else str(scene_path))
+    if args.batch_size:
+        base.ppo.batch_size = args.batch_size
+        base.ppo.minibatch_size = min(base.ppo.minibatch_size, args.batch_size)
+    return base
+
+
+def moving_camera_motion(track, motion):
+    """The reconstruction with the video's extras, root-free (as `sfv reconstruct --camera moving`)."""
+    from services.pose.camera_path import camera_path
+    from services.reconstruction.root_free import make_root_free
+    from services.reconstruction.video_extras import video_extras
+
+    path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
+    motion.extras.update(video_extras(track, path, True, motion.extras.get("label_flipped")))
+    return make_root_free(motion)
+
+
+def _reconstruct(args, out: Path):
+    from actors.motion_io import save_motion
+    from services.pose import estimate_video
+    from services.reconstruction import ReconstructionConfig, reconstruct_on_ray
+
+    config = ReconstructionConfig()
+    if args.iterations is not None:
+        config = dataclasses.replace(config, iterations=args.iterations)
+    track = estimate_video(args.video, models_dir=args.pose_models, use_ray=True)
+    track.save(out / "track.npz")
+    motion = moving_camera_motion(track, reconstruct_on_ray(track, config, args.video.stem))
+    return save_motion(motion, out / "motion.npz")
+
+
+def run_moving(args) -> int:
+    import ray
+
+    from services.pose.video import probe_video
+    from services.ray_session import connect_ray
+    from services.scene_fit import scene_contract
+    from services.scene_fit.stage import run_scene_fit
+
+    if args.scene is not None:
+        scene_contract.load_scene(args.scene)  # the file's own faults (a box outside its domain) before any work
+    base = _base_config(args, args.scene)
+    probe_video(args.video)
+    out: Path = args.out
+    motion_path = out / "motion.npz"
+    if motion_path.exists() and not args.resume:
+        raise SfvError(f"{out}: holds a pipeline run already; pass --resume to continue it or choose another --out")
+    out.mkdir(parents=True, exist_ok=True)
+    started_ray = connect_ray(args.ray_address, log_to_driver=False)
+    try:
+        if not motion_path.exists():
+            _reconstruct(args, out)
+        outcome = run_scene_fit(str(motion_path), None if args.scene is None else str(args.scene), out, base,
+                                progress=not args.quiet)
+    finally:
+        if started_ray:
+            ray.shutdown()
+    from actors.motion_io import load_motion
+    from services.reconstruction.video_extras import video_start_frame
+    from services.scene_fit.outputs import render_simulation
+
+    first = video_start_frame(load_motion(str(motion_path)).extras)  # the motion may begin later in the video
+    video = str(render_simulation(outcome, out / VIDEO_FILE, args.video, first))
+    summary = outcome.summary
+    print(json.dumps({"motion": str(motion_path), "simulated": summary["files"]["motion"], "video": video,
+                      "windows": len(summary["windows"]), "scene": None if outcome.scene_vector is None else outcome.scene_vector.tolist(),
+                      "scores": summary["scores"]}))
+    return 0

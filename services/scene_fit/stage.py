@@ -1,0 +1,99 @@
+"""A scene fit from a root-free motion and a scene file: windows -> SLSQP fit -> final rollout.
+
+The pipeline (`sfv pipeline VIDEO --camera moving --scene boxes.yaml`) runs it after the
+reconstruction; `bench/scene_fit.py` runs it on a synthetic box clip. `check_inputs` reads and
+checks the motion and the scene before anything is trained, so that bad input is one line.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from actors.motion_io import load_motion
+from services.scene_fit import scene_contract
+from services.scene_fit.fit import FitResult, WindowTerms, fit_scene
+from services.scene_fit.windows import MAX_OBJECTS, Window, proportional_contact_frames, split_windows
+from services.training.config import TrainConfig
+
+log = logging.getLogger("sfv.scene_fit")
+
+
+@dataclass
+class SceneFitOutcome:
+    summary: dict  # what scene_fit.json holds, plus the written files
+    simulated: object  # final_rollout.SimulatedRun in the fitted scene
+    runs: list  # sequence.WindowRun
+    scene_vector: np.ndarray | None  # the fitted e (None: no scene)
+
+
+def check_inputs(motion_path: str, scene_path: str | None, env_config):
+    """(motion, scene or None), or the actors' one-line errors: a box out of its domain or over
+    the start pose (the scene loader), no contacts or orientation hint (the movingcam mode's
+    targets, built with an env of the clip)."""
+    motion = load_motion(str(motion_path))
+    scene = None if scene_path is None else scene_contract.load_scene(scene_path, motion)
+    scene_contract.check_env(motion, env_config)
+    return motion, scene
+
+
+def plan_windows(num_frames: int, scene, max_objects: int = MAX_OBJECTS) -> list[Window]:
+    """The clip's windows; box contacts placed by the boxes' order along the heading."""
+    if scene is None:
+        return split_windows(num_frames, [], max_objects)
+    alongs = np.array([box.along for box in scene.boxes])
+    frames = proportional_contact_frames(alongs, num_frames)
+    return split_windows(num_frames, [(int(f), i) for i, f in enumerate(frames)], max_objects)
+
+
+def window_terms(runs) -> list[WindowTerms]:
+    """Each trained window's value network and its rollouts' observations (those that reached
+    the control end), the terms of eq. 14."""
+    from services.scene_fit.value import ValueFunction
+
+    terms = []
+    for run in runs:
+        rollouts = run.rollouts().handover()
+        terms.append(WindowTerms(ValueFunction.from_run(run.train_dir), rollouts.start_obs, rollouts.end_obs))
+    return terms
+
+
+def fit_windows_scene(runs, scene, starts: int = 4, seed: int = 0) -> FitResult:
+    """SLSQP on eq. 14 with every window's value network and rollouts."""
+    return fit_scene(window_terms(runs), scene_contract.scene_obs(scene), scene_contract.scene_vector(scene),
+                     scene_contract.scene_bounds(scene), starts=starts, seed=seed)
+
+
+def run_scene_fit(motion_path: str, scene_path: str | None, out: Path, base: TrainConfig,
+                  max_objects: int = MAX_OBJECTS, rollouts: int = 8, progress: bool = True,
+                  fit_starts: int = 4) -> SceneFitOutcome:
+    """Train the windows (resumable), fit the scene, roll out in it, write the outputs."""
+    from services.scene_fit.final_rollout import final_rollout
+    from services.scene_fit.outputs import write_outputs
+    from services.scene_fit.sequence import train_windows
+
+    clip, scene = check_inputs(motion_path, scene_path, base.env)
+    windows = plan_windows(clip.num_frames, scene, max_objects)
+    runs = train_windows(out, windows, clip, scene, base, rollouts=rollouts, progress=progress)
+    summary: dict = {"motion": str(motion_path), "scene_file": None if scene_path is None else str(scene_path),
+                     "windows": [w.to_dict() for w in windows], "samples_per_window": base.samples}
+    e = None
+    reference_contacts = clip.extras.get("contacts")
+    if scene is not None:
+        fit = fit_windows_scene(runs, scene, starts=fit_starts, seed=base.seed)
+        e = fit.scene
+        summary["fit"] = fit.to_dict()
+        summary["initial_scene"] = scene_contract.scene_vector(scene).tolist()
+        initial = final_rollout(runs, scene_contract.scene_vector(scene), seed=base.seed)
+        summary["initial_scene_scores"] = initial.scores(reference_contacts)  # Table 2's "fixed scene"
+    simulated = final_rollout(runs, e, seed=base.seed)
+    summary["scores"] = simulated.scores(reference_contacts)
+    from actors.humanoid import Humanoid
+    from actors.state import StateLayout
+
+    motion = simulated.motion(f"{clip.name}-simulated", StateLayout(Humanoid()))
+    fitted = None if scene is None else scene_contract.scene_with(scene, e)
+    summary["files"] = write_outputs(out, motion, fitted, summary)
+    return SceneFitOutcome(summary, simulated, runs, e)
