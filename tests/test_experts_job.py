@@ -88,3 +88,13 @@ def test_job_runs_its_trainings_as_ray_tasks(tmp_path):
         assert summary["status"][clip]["state"] == "trained"
         assert samples_done(out / clip) == 128
         assert [row["samples"] for row in read_metrics(out / clip)] == [128]
+
+
+def test_cli_names_a_bad_clip_and_a_missing_directory(tmp_path, capsys):
+    from services.cli import main
+
+    assert main(["experts", "wlak", "--out", str(tmp_path / "x")]) == 2
+    assert "'wlak' is not a DeepMimic clip" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()  # nothing written for a bad list
+    assert main(["experts", "table", str(tmp_path / "none")]) == 2
+    assert "no such experts directory" in capsys.readouterr().err

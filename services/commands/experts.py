@@ -85,7 +85,7 @@ def render(args) -> int:
     """Film one expert (trained or mirrored) deterministically from a start at phase 0."""
     import services.render  # noqa: F401  (sets MUJOCO_GL before anything below can import mujoco)
     from learner.errors import SfvError
-    from services.experts.expert import load_expert
+    from services.experts.library import load_expert
     from services.render.movie import RenderConfig, render_policy
     from services.render.video_writer import check_video_path
 

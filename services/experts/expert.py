@@ -1,7 +1,8 @@
 """An expert: the policy that tracks one clip, with the env it was trained in (004 §3.2).
 
 `Expert` wraps a trained run directory; `MirroredExpert` (`mirrored_expert.py`) has the same
-interface for `<clip>_mirror`. Consumers (the table, the dataset recorder) need only:
+interface for `<clip>_mirror`; `library.load_expert(DIR, clip)` finds either in an experts
+directory. Consumers (the table, the dataset recorder) need only:
 - `expert.motion`: the clip's motion name (`deepmimic:walk`, `deepmimic:walk_mirror`);
 - `expert.env_config`: the `EnvConfig` the expert acts in (the training run's);
 - `expert.make_env()`: an `ImitationEnv` on that clip with that config;
@@ -18,9 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.mirror import MIRROR_SUFFIX
 from actors.motion_io import load_motion
-from learner.errors import SfvError
 
 
 class Expert:
@@ -47,18 +46,3 @@ class Expert:
 
     mean = act
 
-
-def load_expert(experts_dir: str | Path, clip: str, max_batch: int = 64) -> Expert:
-    """The expert for `clip` in an experts directory: `DIR/<clip>/` (a run directory), or for
-    `<clip>_mirror` the mirrored expert of `DIR/<clip>/`."""
-    from services.experts.mirrored_expert import MirroredExpert
-
-    experts_dir = Path(experts_dir)
-    if clip.endswith(MIRROR_SUFFIX):
-        original = clip[: -len(MIRROR_SUFFIX)]
-        if not (experts_dir / original).is_dir():
-            raise SfvError(f"{experts_dir / original}: no expert for {original}, which {clip} mirrors")
-        return MirroredExpert(Expert.from_run(experts_dir / original, max_batch))
-    if not (experts_dir / clip).is_dir():
-        raise SfvError(f"{experts_dir / clip}: no expert for clip {clip}")
-    return Expert.from_run(experts_dir / clip, max_batch)

@@ -145,9 +145,9 @@ def run_experts_job(clips: list[str], out: str | Path, samples: int = DEFAULT_SA
     returns (and writes to DIR/experts_job.json) each clip's status."""
     from services.ray_session import ray_session
 
+    clips = expand_clips(clips)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    clips = expand_clips(clips)
     template = template or job_template(samples)
     if curriculum_samples is None and template.curriculum_samples > samples:
         curriculum_samples = max(1, samples // 2)

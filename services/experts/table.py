@@ -91,7 +91,7 @@ def evaluate_expert(experts_dir: str, clip: str, episodes: int = DEFAULT_EPISODE
     from threadpoolctl import threadpool_limits
 
     from actors.motion_io import load_motion
-    from services.experts.expert import load_expert
+    from services.experts.library import load_expert
     from services.experts.job import samples_done
     from services.training.evaluation import evaluate_policy, make_eval_env
 
