@@ -78,6 +78,13 @@ def test_table_of_a_tiny_expert_and_its_mirror(tmp_path):
     assert json.loads((out / TABLE_JSON).read_text())["experts"][1]["clip"] == "jump_mirror"
     assert "| jump_mirror |" in (out / TABLE_MD).read_text()
     assert (out / TABLE_PNG).read_bytes()[:4] == b"\x89PNG"
+    # Built again: the rows of experts that did not train since are kept, the others measured anew.
+    assert build_table(out, episodes=2, starts=3, curve_seconds=0.5, progress=False)["reused"] == ["jump", "jump_mirror"]
+    run_experts_job(["jump"], out, samples=256, parallel=1, template=tiny_template(256), progress=False)
+    table = build_table(out, episodes=2, starts=3, curve_seconds=0.5, progress=False)
+    assert table["reused"] == [] and {row["samples"] for row in table["experts"]} == {256}
+    build_table(out, clips=["jump"], episodes=2, starts=3, curve_seconds=0.5, progress=False, out=tmp_path / "table")
+    assert (tmp_path / "table" / TABLE_MD).is_file()
 
 
 def test_job_runs_its_trainings_as_ray_tasks(tmp_path):

@@ -1,7 +1,7 @@
 """`sfv experts`: train a tracking expert per clip (one resumable Ray job), and tabulate them.
 
     sfv experts CLIPS... --out DIR [--samples N] [--parallel K] [--table]
-    sfv experts table DIR [--episodes E] [--parallel K]
+    sfv experts table DIR [--table-out OUT] [--episodes E] [--parallel K]
     sfv experts render DIR CLIP --video FILE.mp4 [--seconds T]   (CLIP may be <clip>_mirror)
 
 CLIPS are DeepMimic clip names, `<clip>_mirror` (served by symmetry, not trained) or `all`.
@@ -29,6 +29,7 @@ def register(sub) -> None:
     p.add_argument("--curriculum-samples", type=int, default=None, help="episode-length curriculum of new trainings (default: half the budget)")
     p.add_argument("--parallel", type=int, default=None, help="trainings (or evaluations) at once, one core each (default: every core)")
     p.add_argument("--table", action="store_true", help="after training, write the expert table of --out")
+    p.add_argument("--table-out", default=None, help="folder for the table's files (default: the experts directory)")
     p.add_argument("--episodes", type=int, default=DEFAULT_EPISODES, help="strict evaluation episodes per expert in the table")
     p.add_argument("--starts", type=int, default=DEFAULT_STARTS, help="starts through each clip for the tracking curve (Fig. 3B)")
     p.add_argument("--curve-seconds", type=float, default=CURVE_SECONDS, help="longest rollout of the tracking curve (s)")
@@ -53,7 +54,7 @@ def run(args) -> int:
         raise SfvError(f"sfv experts: --parallel must be positive, got {args.parallel}")
     parallel = args.parallel or default_parallel()
     table_args = dict(episodes=args.episodes, starts=args.starts, curve_seconds=args.curve_seconds, parallel=parallel,
-                      progress=not args.quiet)
+                      progress=not args.quiet, out=args.table_out)
     if args.clips[0] == "render":
         return render(args)
     if args.clips[0] == "table":

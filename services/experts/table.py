@@ -14,8 +14,8 @@ Per expert (a trained `DIR/<clip>/` and, by symmetry, `<clip>_mirror`):
 Deviation: 004's tracking error is its reward's energy (joint angles, velocities, appendages,
 ...); here the two errors are the evaluation's, which a reader can interpret in rad and m.
 
-Outputs: `DIR/experts.json` (every figure and curve), `DIR/experts.md` (the table) and
-`DIR/experts_tracking.png` (Fig. 3B).
+Outputs (in the experts directory or `--table-out`): `experts.json` (every figure and
+curve), `experts.md` (the table) and `experts_tracking.png` (Fig. 3B).
 """
 from __future__ import annotations
 
@@ -120,38 +120,60 @@ def table_clips(experts_dir: Path, mirrors: bool = True) -> list[str]:
 
 def build_table(experts_dir: str | Path, clips: list[str] | None = None, episodes: int = DEFAULT_EPISODES,
                 starts: int = DEFAULT_STARTS, curve_seconds: float = CURVE_SECONDS, parallel: int = 1,
-                progress: bool = True) -> dict:
+                progress: bool = True, out: str | Path | None = None) -> dict:
     """Evaluate the experts (one Ray task each when `parallel` > 1, else in this process) and
-    write experts.json, experts.md and the Fig. 3B PNG into the directory."""
+    write experts.json, experts.md and the Fig. 3B PNG into `out` (default: the experts
+    directory). Rows of an earlier experts.json there are kept for experts that have not
+    trained since (same samples) and were measured with the same settings, so a table
+    grows with the experts instead of re-evaluating them all."""
     from tqdm import tqdm
+
+    from services.experts.job import samples_done
 
     experts_dir = Path(experts_dir)
     if not experts_dir.is_dir():
         raise SfvError(f"{experts_dir}: no such experts directory")
+    out = experts_dir if out is None else Path(out)
+    out.mkdir(parents=True, exist_ok=True)
     clips = clips or table_clips(experts_dir)
     if not clips:
         raise SfvError(f"{experts_dir}: no trained experts (no <clip>/ run directory with a checkpoint)")
-    args = [(str(experts_dir), clip, episodes, starts, curve_seconds) for clip in clips]
-    bar = tqdm(total=len(clips), desc="evaluating experts", unit="expert", disable=not progress, dynamic_ncols=True)
-    if parallel > 1:
-        rows = _evaluate_with_ray(args, parallel, bar)
+    settings = {"experts_dir": str(experts_dir), "episodes": int(episodes), "curve_starts": int(starts), "curve_seconds": float(curve_seconds)}
+    earlier = _earlier_rows(out / TABLE_JSON, settings)
+    trained = {clip: samples_done(experts_dir / clip.removesuffix(MIRROR_SUFFIX)) for clip in clips}
+    kept = {clip: earlier[clip] for clip in clips if clip in earlier and earlier[clip]["samples"] == trained[clip]}
+    args = [(str(experts_dir), clip, episodes, starts, curve_seconds) for clip in clips if clip not in kept]
+    bar = tqdm(total=len(args), desc="evaluating experts", unit="expert", disable=not progress, dynamic_ncols=True)
+    if parallel > 1 and len(args) > 1:
+        fresh = _evaluate_with_ray(args, parallel, bar)
     else:
-        rows = []
+        fresh = []
         for a in args:
-            rows.append(evaluate_expert(*a))
+            fresh.append(evaluate_expert(*a))
             bar.update(1)
     bar.close()
-    by_clip = {row["clip"]: row for row in rows}
+    by_clip = {**kept, **{row["clip"]: row for row in fresh}}
+    rows = [by_clip[clip] for clip in clips]
     for row in rows:  # how far the symmetric expert is from the one it mirrors
         original = by_clip.get(row.get("mirror_of", ""))
         if original is not None:
             row["normalized_return_gap"] = row["normalized_return"] - original["normalized_return"]
-    table = {"experts_dir": str(experts_dir), "episodes": int(episodes), "curve_starts": int(starts),
-             "curve_seconds": float(curve_seconds), "experts": rows}
-    atomic_write_json(experts_dir / TABLE_JSON, table, sort_keys=True)
-    atomic_write_text(experts_dir / TABLE_MD, markdown_table(table))
-    plot_tracking(table, experts_dir / TABLE_PNG)
+    table = {**settings, "experts": rows, "reused": sorted(kept)}
+    atomic_write_json(out / TABLE_JSON, table, sort_keys=True)
+    atomic_write_text(out / TABLE_MD, markdown_table(table))
+    plot_tracking(table, out / TABLE_PNG)
     return table
+
+
+def _earlier_rows(path: Path, settings: dict) -> dict:
+    """{clip: row} of an earlier table measured with the same settings (none otherwise)."""
+    try:
+        earlier = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return {}
+    if not isinstance(earlier, dict) or any(earlier.get(k) != v for k, v in settings.items()):
+        return {}
+    return {row["clip"]: row for row in earlier.get("experts", []) if isinstance(row, dict) and "clip" in row}
 
 
 def _evaluate_with_ray(args: list[tuple], parallel: int, bar) -> list[dict]:
@@ -231,10 +253,3 @@ def plot_tracking(table: dict, out: Path) -> Path:
     finally:
         plt.close(fig)
     return out
-
-
-def read_table(experts_dir: str | Path) -> dict:
-    path = Path(experts_dir) / TABLE_JSON
-    if not path.is_file():
-        raise SfvError(f"{path}: no expert table yet (run sfv experts table {experts_dir})")
-    return json.loads(path.read_text())
