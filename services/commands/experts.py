@@ -1,7 +1,7 @@
 """`sfv experts`: train a tracking expert per clip (one resumable Ray job), and tabulate them.
 
     sfv experts CLIPS... --out DIR [--samples N] [--parallel K] [--table]
-    sfv experts table DIR [--table-out OUT] [--episodes E] [--parallel K]
+    sfv experts table DIR [CLIP...] [--table-out OUT] [--episodes E] [--parallel K]   (default: every trained clip and its mirror)
     sfv experts render DIR CLIP --video FILE.mp4 [--seconds T]   (CLIP may be <clip>_mirror)
 
 CLIPS are DeepMimic clip names, `<clip>_mirror` (served by symmetry, not trained) or `all`.
@@ -17,7 +17,7 @@ def register(sub) -> None:
 
     p = sub.add_parser("experts", help="train one tracking expert per clip (resumable Ray job), or `table DIR` to evaluate them",
                        usage="sfv experts CLIPS... --out DIR [--samples N] [--parallel K] [--table]\n"
-                             "       sfv experts table DIR [--episodes E] [--parallel K]\n"
+                             "       sfv experts table DIR [CLIP...] [--table-out OUT] [--episodes E] [--parallel K]\n"
                              "       sfv experts render DIR CLIP --video FILE.mp4 [--seconds T]",
                        description="Tracking experts (NPMP, 004 §3.2): one standard run directory DIR/<clip>/ per clip, "
                                    "finished clips skipped, partial ones resumed; <clip>_mirror comes from <clip>'s expert by "
@@ -43,7 +43,7 @@ def run(args) -> int:
     import logging
 
     from learner.errors import SfvError
-    from services.experts.job import default_parallel, run_experts_job
+    from services.experts.job import default_parallel, expand_clips, run_experts_job
     from services.experts.table import build_table, markdown_table
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
@@ -58,9 +58,10 @@ def run(args) -> int:
     if args.clips[0] == "render":
         return render(args)
     if args.clips[0] == "table":
-        if len(args.clips) != 2:
-            raise SfvError("sfv experts table: give exactly one experts directory (sfv experts table DIR)")
-        print(markdown_table(build_table(args.clips[1], **table_args)), end="")
+        if len(args.clips) < 2:
+            raise SfvError("sfv experts table: give the experts directory (sfv experts table DIR [CLIP...])")
+        clips = expand_clips(args.clips[2:]) if len(args.clips) > 2 else None
+        print(markdown_table(build_table(args.clips[1], clips, **table_args)), end="")
         return 0
     if args.out is None:
         raise SfvError("sfv experts: --out DIR is required (the experts directory)")
