@@ -60,7 +60,7 @@ def _write_module_config(out: Path, config: MotorModuleConfig, dataset: Path, ma
               "encoder_input": "future (565): actors/future_reference.py (k = 5) and z_t-1"}
     if path.exists():
         saved = json.loads(path.read_text())
-        if saved.get("module") != record["module"] or saved.get("held_out") != record["held_out"]:
+        if saved.get("module") != json.loads(json.dumps(record["module"])) or saved.get("held_out") != record["held_out"]:
             raise SfvError(f"{path}: a module with other settings is there (resume takes the same settings, or pick another --out)")
         return
     atomic_write_json(path, record, sort_keys=True)
@@ -111,7 +111,7 @@ class Distiller:
         if path is None:
             return False
         state = load_checkpoint(path)
-        if state.get("config") != self.config.to_dict():
+        if MotorModuleConfig.from_dict(state.get("config", {})) != self.config:
             raise SfvError(f"{path}: saved with other module settings; resume with the same ones")
         self.module.load_state_dict(state["module"])
         self.optimizer.load_state_dict(state["optimizer"])
@@ -179,7 +179,7 @@ class Distiller:
                     elapsed = time.perf_counter() - started
                     row = {key: value / count for key, value in sums.items()} | self.validate()
                     row |= {"samples": self.samples, "update": self.update, "steps_per_s": count * self.config.batch_windows * self.config.window / elapsed,
-                            "action_std_rad": float(self.module.action_std().mean())}
+                            "action_std_rad": float(self.module.action_std().mean().detach())}
                     log.write(row)
                     bar.set_postfix(loss=f"{row['loss']:.2f}", kl=f"{row['kl']:.1f}", rmse=f"{row['rmse']:.3f}")
                     sums, count, started = {}, 0, time.perf_counter()
