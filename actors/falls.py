@@ -35,10 +35,12 @@ MIN_ROOT_HEIGHT = 0.3
 
 
 def clip_key(motion_name: str) -> str:
-    """'deepmimic:cartwheel', 'humanoid3d_cartwheel' or a path's stem -> 'cartwheel'."""
+    """'deepmimic:cartwheel', 'humanoid3d_cartwheel' or a path's stem -> 'cartwheel'; a
+    mirrored clip ('cartwheel_mirror') has its original's rule (the allowed links come in
+    left/right pairs, so the rule is its own mirror image)."""
     name = motion_name.rsplit("/", 1)[-1].split(":", 1)[-1]
     name = name.rsplit(".", 1)[0] if name.endswith((".txt", ".json", ".npz")) else name
-    return name.removeprefix("humanoid3d_")
+    return name.removeprefix("humanoid3d_").removesuffix("_mirror")
 
 
 def allowed_contact_links(motion_name: str, override: tuple[str, ...] | None = None) -> tuple[str, ...]:

@@ -15,7 +15,8 @@ Formats
 - BVH (`.bvh`, or any file starting with HIERARCHY) from any rig: the rig is detected from
   its joint names and the clip retargeted onto the humanoid (`actors/bvh_import.py`).
 - Names: `deepmimic:<clip>` resolves to `pybullet_data/data/motions/humanoid3d_<clip>.txt`
-  (install the `mocap` extra); anything else is a path.
+  (install the `mocap` extra); `deepmimic:<clip>_mirror` is that clip mirrored left/right
+  (`actors/mirror.py`); anything else is a path.
 
 Every fault raises `MotionFormatError` with the file and the fault in one line.
 """
@@ -29,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from actors import quaternion as qn
+from actors.mirror import MIRROR_SUFFIX, mirror_motion
 from actors.motion import MotionFormatError, ReferenceMotion
 from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, JOINT_NAMES, NUM_JOINTS, revolute_angle
 from learner.atomic_io import atomic_output
@@ -60,8 +62,12 @@ def resolve_motion_path(name_or_path: str) -> Path:
 
 
 def load_motion(name_or_path: str) -> ReferenceMotion:
-    """Load a motion by name (`deepmimic:walk`) or path (.npz, DeepMimic JSON or BVH)."""
-    path = resolve_motion_path(str(name_or_path))
+    """Load a motion by name (`deepmimic:walk`, `deepmimic:walk_mirror`) or path (.npz,
+    DeepMimic JSON or BVH)."""
+    name = str(name_or_path)
+    if name.startswith("deepmimic:") and name.endswith(MIRROR_SUFFIX):
+        return mirror_motion(load_motion(name[: -len(MIRROR_SUFFIX)]))
+    path = resolve_motion_path(name)
     try:
         with open(path, "rb") as f:
             magic = f.read(64)

@@ -1,0 +1,228 @@
+"""`sfv experts`: one resumable job that trains a tracking expert per clip (004 §3.2).
+
+The job is a Ray job graph: one Ray task per training, each a whole `Trainer` run with the
+in-process runner (its rollout workers and PPO learner in the task's process, one core,
+`torch_threads` 1), so Ray runs K = cores trainings at once (`parallel`). Each clip is a
+standard run directory `DIR/<clip>/` (the layout of `sfv train --out DIR/<clip>`), so a run
+made by hand is adopted as it is: a clip whose newest valid checkpoint has reached the sample
+budget is skipped, one with a checkpoint below it is resumed (`--resume`'s rules: its saved
+settings, the budget raised), any other starts afresh. A killed job resumes the same way.
+
+Mirrored clips (`<clip>_mirror`) are not trained: `MirroredExpert` serves them from their
+original's expert, so asking for one trains its original. `all` is every DeepMimic
+humanoid3d clip in pybullet_data and its mirror.
+
+Robustness to action noise (004 §3.2: sigma = .1 per actuator on [-1, 1] actions) needs no
+extra setting: PPO explores with a fixed Gaussian action std of 0.1 in the env's normalised
+action units (`learner/config.py` `action_std`), which is that noise, throughout training.
+
+Deviation: 004 trains each expert far longer (and with DeepMimic-style RL at scale); the
+default budget here (1 M samples, curriculum over the first half) is what one clip costs in a
+few minutes on this machine; the expert table (`table.py`) says how well each one tracks.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import time
+from pathlib import Path
+
+from actors.mirror import MIRROR_SUFFIX
+from actors.motion_io import DEEPMIMIC_CLIPS
+from learner.errors import SfvError
+from services.training.config import TrainConfig
+from services.training.run_dir import CONFIG_FILE, read_run_config
+
+ALL = "all"
+DEFAULT_SAMPLES = 1_000_000
+JOB_FILE = "experts_job.json"
+POLL_S = 2.0
+
+
+# ----------------------------------------------------------------------------- clip lists
+def expand_clips(names: list[str]) -> list[str]:
+    """Clip names in order, duplicates dropped; `all` = every clip and its mirror. A name is
+    a DeepMimic clip or `<clip>_mirror`; anything else is an SfvError naming it."""
+    clips: list[str] = []
+    for name in names:
+        expanded = [c for clip in DEEPMIMIC_CLIPS for c in (clip, clip + MIRROR_SUFFIX)] if name == ALL else [name]
+        for clip in expanded:
+            if clip.removesuffix(MIRROR_SUFFIX) not in DEEPMIMIC_CLIPS:
+                raise SfvError(f"sfv experts: {clip!r} is not a DeepMimic clip or <clip>{MIRROR_SUFFIX} "
+                               f"(known: {', '.join(DEEPMIMIC_CLIPS)}, or all)")
+            if clip not in clips:
+                clips.append(clip)
+    if not clips:
+        raise SfvError("sfv experts: no clips given (name clips, or all)")
+    return clips
+
+
+def clips_to_train(clips: list[str]) -> list[str]:
+    """The originals the clip list needs trained (a mirror needs its original)."""
+    trained: list[str] = []
+    for clip in clips:
+        original = clip.removesuffix(MIRROR_SUFFIX)
+        if original not in trained:
+            trained.append(original)
+    return trained
+
+
+# ------------------------------------------------------------------------- run status
+def samples_done(run_dir: Path) -> int:
+    """Samples of the newest valid checkpoint (0 when there is none); verifies it."""
+    from learner.checkpoint import latest_checkpoint, load_checkpoint
+
+    latest = latest_checkpoint(run_dir) if run_dir.is_dir() else None
+    return int(load_checkpoint(latest)["samples"]) if latest is not None else 0
+
+
+def samples_logged(run_dir: Path) -> int:
+    """Samples of metrics.jsonl's last whole line (cheap: the file's tail only), for progress."""
+    path = run_dir / "metrics.jsonl"
+    try:
+        with open(path, "rb") as f:
+            f.seek(max(0, path.stat().st_size - 8192))
+            lines = f.read().decode(errors="replace").splitlines()
+    except OSError:
+        return 0
+    for line in reversed(lines):
+        try:
+            return int(json.loads(line)["samples"])
+        except (ValueError, KeyError, TypeError):
+            continue
+    return 0
+
+
+def expert_config(template: TrainConfig, clip: str, run_dir: Path, samples: int, curriculum_samples: int | None) -> tuple[TrainConfig, bool]:
+    """(config, resume) of one clip's training: the run's saved config with the budget raised
+    when it has a checkpoint, else the template for this clip."""
+    done = samples_done(run_dir)
+    settings = dict(out=str(run_dir), samples=int(samples), runner=template.runner, workers=template.workers,
+                    torch_threads=template.torch_threads, plot_every=template.plot_every)
+    if done > 0:
+        config = read_run_config(run_dir)
+        if config.motion != f"deepmimic:{clip}":
+            raise SfvError(f"{run_dir / CONFIG_FILE}: trains {config.motion}, not deepmimic:{clip}")
+        return dataclasses.replace(config, **settings), True
+    curriculum = template.curriculum_samples if curriculum_samples is None else curriculum_samples
+    config = dataclasses.replace(template, motion=f"deepmimic:{clip}", job_id=None, curriculum_samples=int(curriculum), **settings)
+    return config, False
+
+
+# --------------------------------------------------------------------------- the job
+def train_one(config_dict: dict, resume: bool, progress: bool = False) -> dict:
+    """The body of one Ray task: a whole training in this process (no progress bar in a
+    task: the job's driver draws them from the run directories)."""
+    import logging
+
+    from services.training.driver import Trainer
+
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    config = TrainConfig.from_dict(config_dict)
+    started = time.perf_counter()
+    record = Trainer(config, resume=resume, progress=progress).run()
+    return {"samples": int(record.get("samples", 0)), "seconds": time.perf_counter() - started,
+            "samples_per_s": record.get("overall_samples_per_s"), "normalized_return": record.get("normalized_return")}
+
+
+def default_parallel() -> int:
+    """Trainings at once: one per core (each is one process: in-process workers, one torch thread)."""
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
+
+
+def job_template(samples: int = DEFAULT_SAMPLES) -> TrainConfig:
+    """The settings every new expert trains with: the project defaults (RSI-free ASI starts,
+    residual exp-map actions, the episode curriculum over half the budget), workers in the
+    task's process, one torch thread."""
+    return TrainConfig(samples=samples, curriculum_samples=max(1, samples // 2), runner="in_process", workers=2, torch_threads=1)
+
+
+def run_experts_job(clips: list[str], out: str | Path, samples: int = DEFAULT_SAMPLES, parallel: int | None = None,
+                    template: TrainConfig | None = None, curriculum_samples: int | None = None,
+                    progress: bool = True, ray_address: str | None = None) -> dict:
+    """Train every clip of `clips` (see `expand_clips`) that is not finished, K at once;
+    returns (and writes to DIR/experts_job.json) each clip's status."""
+    from services.ray_session import ray_session
+
+    clips = expand_clips(clips)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    template = template or job_template(samples)
+    if curriculum_samples is None and template.curriculum_samples > samples:
+        curriculum_samples = max(1, samples // 2)
+    parallel = parallel or default_parallel()
+    if parallel < 1:
+        raise SfvError(f"sfv experts: --parallel must be positive, got {parallel}")
+    status: dict[str, dict] = {}
+    pending: list[tuple[str, TrainConfig, bool]] = []
+    for clip in clips_to_train(clips):
+        run_dir = out / clip
+        config, resume = expert_config(template, clip, run_dir, samples, curriculum_samples)
+        config.validate()
+        done = samples_done(run_dir) if resume else 0
+        if done >= samples:
+            status[clip] = {"state": "finished", "samples": done, "run": str(run_dir)}
+        else:
+            status[clip] = {"state": "resumed" if resume else "started", "from_samples": done, "run": str(run_dir)}
+            pending.append((clip, config, resume))
+    for clip in clips:
+        if clip.endswith(MIRROR_SUFFIX):
+            status[clip] = {"state": "mirrored", "of": clip.removesuffix(MIRROR_SUFFIX)}
+    if pending and parallel == 1 and ray_address is None:
+        _run_here(pending, status, progress)  # one at a time: no Ray needed (CI, debugging)
+    elif pending:
+        with ray_session(ray_address, num_cpus=parallel, log_to_driver=True):
+            _run_tasks(pending, status, samples, progress)
+    summary = {"clips": clips, "samples": int(samples), "parallel": int(parallel), "status": status}
+    from learner.atomic_io import atomic_write_json
+
+    atomic_write_json(out / JOB_FILE, summary, sort_keys=True)
+    failed = [clip for clip, s in status.items() if s["state"] == "failed"]
+    if failed:
+        reasons = "; ".join(f"{clip}: {status[clip]['error']}" for clip in failed)
+        raise SfvError(f"sfv experts: {len(failed)} training(s) failed ({reasons}); rerun the same command to resume them")
+    return summary
+
+
+def _run_here(pending: list, status: dict, progress: bool) -> None:
+    """The trainings one after the other in this process, each with its own progress bar."""
+    for clip, config, resume in pending:
+        try:
+            status[clip].update(state="trained", **train_one(config.to_dict(), resume, progress))
+        except SfvError as exc:
+            status[clip].update(state="failed", error=str(exc))
+
+
+def _run_tasks(pending: list, status: dict, samples: int, progress: bool) -> None:
+    """Submit one Ray task per training (Ray runs `num_cpus` of them at once) and draw a bar
+    per clip plus an overall one from the run directories until all have ended."""
+    import ray
+    from tqdm import tqdm
+
+    task = ray.remote(num_cpus=1, max_retries=0)(train_one)
+    refs = {task.remote(config.to_dict(), resume): (clip, Path(config.out)) for clip, config, resume in pending}
+    width = max(len(clip) for clip, _, _ in pending)
+    overall = tqdm(total=len(pending), desc="experts".ljust(width), unit="clip", position=0, disable=not progress, dynamic_ncols=True)
+    bars = {clip: tqdm(total=samples, desc=clip.ljust(width), unit="samples", position=i + 1, disable=not progress,
+                       dynamic_ncols=True, initial=status[clip]["from_samples"]) for i, (clip, _, _) in enumerate(pending)}
+    waiting = list(refs)
+    try:
+        while waiting:
+            ready, waiting = ray.wait(waiting, num_returns=len(waiting), timeout=POLL_S)
+            for ref in ready:
+                clip, run_dir = refs[ref]
+                try:
+                    result = ray.get(ref)
+                    status[clip].update(state="trained", **result)
+                except ray.exceptions.RayError as exc:
+                    cause = getattr(exc, "cause", None)
+                    status[clip].update(state="failed", error=str(cause or exc).strip().splitlines()[-1][:300])
+                overall.update(1)
+            for clip, run_dir in refs.values():
+                bar = bars[clip]
+                bar.update(max(0, min(samples, samples_logged(run_dir)) - bar.n))
+    finally:
+        for bar in bars.values():
+            bar.close()
+        overall.close()
