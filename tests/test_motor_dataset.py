@@ -89,7 +89,7 @@ def test_recorder_rolls_a_tiny_expert_out_with_noise(random_expert, tmp_path):
     from services.motor.recorder import RecordConfig, record_clip
 
     config = RecordConfig(steps_per_clip=130, episode_steps=40, chunk_steps=60, noise_std=0.1)
-    chunks = record_clip(str(random_expert), 3, str(tmp_path), config)
+    chunks = record_clip(str(random_expert.parent), random_expert.name, 3, str(tmp_path), config)
     assert sum(c["steps"] for c in chunks) == 130 and len(chunks) >= 2
     data = [read_chunk(tmp_path / c["file"]) for c in chunks]
     rows = {name: np.concatenate([d[name] for d in data]) for name in FIELDS}
@@ -106,7 +106,7 @@ def test_recorder_rolls_a_tiny_expert_out_with_noise(random_expert, tmp_path):
     # noise 0.1 on residual actions (0.5 rad each): the applied targets differ by ~0.04 rad, except where clipped
     assert 0.01 < np.median(gap) < 0.1
     assert np.isfinite(rows["future"]).all() and np.abs(rows["proprio"][:, 0] - 0.0).min() > 0.3  # a standing root height
-    noiseless = record_clip(str(random_expert), 0, str(tmp_path / "quiet"), RecordConfig(steps_per_clip=20, episode_steps=20, noise_std=0.0))
+    noiseless = record_clip(str(random_expert.parent), random_expert.name, 0, str(tmp_path / "quiet"), RecordConfig(steps_per_clip=20, episode_steps=20, noise_std=0.0))
     quiet = read_chunk(tmp_path / "quiet" / noiseless[0]["file"])
     assert np.allclose(quiet["applied_targets"], quiet["mean_targets"], atol=1e-5)
 

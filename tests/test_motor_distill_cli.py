@@ -49,7 +49,7 @@ def test_distill_two_tiny_experts_into_a_module(experts, tmp_path, capsys):
     assert decoder(np.zeros((2, 196), np.float32), np.zeros((2, 4), np.float32)).shape == (2, 28)
     assert load_module(module_dir).config.latent_dim == 4
 
-    figures = evaluate_clip(str(module_dir), str(experts / "stand_b"), episodes=1)
+    figures = evaluate_clip(str(module_dir), str(experts), "stand_b", episodes=1)
     assert set(figures) >= {"expert", "one_shot", "relative_return", "relative_survival"}
     assert 0.0 <= figures["one_shot"]["normalized_return"] <= 1.0 and figures["relative_survival"] > 0
 

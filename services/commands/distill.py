@@ -39,7 +39,7 @@ def register(sub) -> None:
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("experts", help="directory of expert run directories, one per clip")
     p.add_argument("--out", required=True, help="module directory")
-    p.add_argument("--clips", nargs="+", default=None, help="clips to record (default: every expert with a checkpoint)")
+    p.add_argument("--clips", nargs="+", default=None, help="clips to record (default: every expert with a checkpoint); <clip>_mirror: the mirrored expert of <clip>")
     p.add_argument("--hold-out", nargs="+", default=(), metavar="CLIP", help="recorded clips left out of training")
     p.add_argument("--dataset", default=None, help="dataset directory (default MODULE/dataset); recorded when absent")
     p.add_argument("--updates", type=int, default=6000, help="gradient steps (default 6000)")
@@ -63,7 +63,7 @@ def run(args) -> int:
     from learner.errors import SfvError
     from learner.motor_config import MotorModuleConfig
     from services.motor.dataset import MANIFEST
-    from services.motor.recorder import RecordConfig, expert_runs, record_dataset
+    from services.motor.recorder import RecordConfig, expert_clips, record_dataset
     from services.motor.training import Distiller, DistillRun
 
     if args.updates < 1 or (args.torch_threads is not None and args.torch_threads < 1):
@@ -73,7 +73,7 @@ def run(args) -> int:
     if out.exists() and any(out.glob("checkpoint_*.pt")) and not args.resume:
         raise SfvError(f"{out}: a module is being trained there (add --resume to continue)")
     if not (dataset / MANIFEST).is_file():
-        manifest = record_dataset(expert_runs(Path(args.experts), args.clips), dataset, _config(RecordConfig, args), progress=not args.quiet)
+        manifest = record_dataset(Path(args.experts), expert_clips(Path(args.experts), args.clips), dataset, _config(RecordConfig, args), progress=not args.quiet)
         print(f"dataset {dataset}: {manifest['steps']} steps of {len(manifest['clips'])} clips, {manifest['bytes'] / 2**20:.0f} MiB")
     config = _config(MotorModuleConfig, args, skip=("proprio_dim", "future_dim", "action_dim"))
     distiller = Distiller(dataset, out, config, tuple(args.hold_out),

@@ -30,7 +30,7 @@ def run(args) -> int:
 
     from learner.errors import SfvError
     from services.motor.one_shot import one_shot_benchmark
-    from services.motor.recorder import expert_runs
+    from services.motor.recorder import expert_clips
 
     if args.episodes < 1:
         raise SfvError("one-shot: --episodes must be >= 1")
@@ -41,7 +41,7 @@ def run(args) -> int:
         except (OSError, ValueError) as exc:
             raise SfvError(f"{args.module}: not a motor module directory ({exc})") from None
         clips = list(record.get("clips", [])) + list(record.get("held_out", []))
-    result = one_shot_benchmark(Path(args.module), expert_runs(Path(args.experts), clips), args.episodes, Path(args.out), not args.quiet)
+    result = one_shot_benchmark(Path(args.module), Path(args.experts), expert_clips(Path(args.experts), clips), args.episodes, Path(args.out), not args.quiet)
     for clip, figures in result["clips"].items():
         print(f"{clip:12s} {'held out' if figures['held_out'] else 'trained':8s} expert NR {figures['expert']['normalized_return']:.3f}  "
               f"one-shot NR {figures['one_shot']['normalized_return']:.3f}  relative {figures['relative_return']:.2f}  "

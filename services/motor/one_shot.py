@@ -56,20 +56,21 @@ class OneShotPolicy:
         return targets / env.actions.scale
 
 
-def evaluate_clip(module_dir: str, run_dir: str, episodes: int) -> dict:
-    """Expert and one-shot figures for the clip of the expert at `run_dir`."""
+def evaluate_clip(module_dir: str, experts_dir: str, clip: str, episodes: int) -> dict:
+    """Expert and one-shot figures for `clip` (its expert from `experts_dir`, mirrored ones included)."""
     import torch
 
+    from actors.imitation_env import ImitationEnv
+    from actors.motion_io import load_motion
     from learner.motor_decoder import LatentDecoder
+    from services.experts.library import load_expert
     from services.motor.training import load_module
     from services.training.evaluation import evaluate_policy
-    from services.training.policy_source import load_policy_source
 
     torch.set_num_threads(1)
-    source = load_policy_source(run_dir)
-    expert = evaluate_policy(source.policy, source.make_env(), episodes)
-    absolute = dataclasses.replace(source, env_config=dataclasses.replace(source.env_config, residual_action_scale=None))
-    env = absolute.make_env()
+    source = load_expert(experts_dir, clip, max_batch=1)
+    expert = evaluate_policy(source, source.make_env(), episodes)
+    env = ImitationEnv(load_motion(source.motion), dataclasses.replace(source.env_config, residual_action_scale=None))
     one_shot = evaluate_policy(OneShotPolicy(env, load_module(Path(module_dir)), LatentDecoder.load(module_dir)), env, episodes)
     summary = {name: {key: result.get(key) for key in SUMMARY_KEYS} for name, result in (("expert", expert), ("one_shot", one_shot))}
     summary["relative_return"] = one_shot["normalized_return"] / max(expert["normalized_return"], 1e-9)
@@ -77,8 +78,8 @@ def evaluate_clip(module_dir: str, run_dir: str, episodes: int) -> dict:
     return summary
 
 
-def one_shot_benchmark(module_dir: Path, runs: dict[str, Path], episodes: int, out: Path, progress: bool = True) -> dict:
-    """Every clip of `runs` (Ray tasks), JSON into `out` (+ a bar chart beside it)."""
+def one_shot_benchmark(module_dir: Path, experts_dir: Path, clips: list[str], episodes: int, out: Path, progress: bool = True) -> dict:
+    """Every clip (Ray tasks), JSON into `out` (+ a bar chart beside it)."""
     import ray
     from tqdm import tqdm
 
@@ -93,7 +94,7 @@ def one_shot_benchmark(module_dir: Path, runs: dict[str, Path], episodes: int, o
     results = {}
     with ray_session():
         task = ray.remote(num_cpus=1, max_retries=0)(evaluate_clip)
-        refs = {task.remote(str(module_dir), str(run), episodes): clip for clip, run in runs.items()}
+        refs = {task.remote(str(module_dir), str(experts_dir), clip, episodes): clip for clip in clips}
         with tqdm(total=len(refs), unit="clip", desc="one-shot", disable=not progress) as bar:
             while refs:
                 ready, _ = ray.wait(list(refs), num_returns=1)
@@ -101,7 +102,7 @@ def one_shot_benchmark(module_dir: Path, runs: dict[str, Path], episodes: int, o
                 results[clip] = get_results(ready)[0] | {"held_out": clip in held_out}
                 bar.update()
     record = {"module": str(module_dir), "trained_on": module_record.get("clips"), "held_out": sorted(held_out),
-              "episodes": episodes, "clips": {clip: results[clip] for clip in runs}}
+              "episodes": episodes, "clips": {clip: results[clip] for clip in clips}}
     atomic_write_json(out, record, sort_keys=True)
     plot_relative(record, out.with_suffix(".png"))
     return record

@@ -51,17 +51,17 @@ def _episode_rows(capacity: int) -> dict[str, np.ndarray]:
     return {name: np.zeros((capacity, *shape), dtype=dtype) for name, (dtype, shape) in FIELDS.items()}
 
 
-def record_clip(run_dir: str, clip_index: int, out_dir: str, config: RecordConfig) -> list[dict]:
-    """Roll the expert of `run_dir` out until `config.steps_per_clip` rows; chunks into `out_dir`.
+def record_clip(experts_dir: str, clip: str, clip_index: int, out_dir: str, config: RecordConfig) -> list[dict]:
+    """Roll the expert of `clip` (`services/experts/library.py`: a run directory, or a mirrored
+    expert for `<clip>_mirror`) out until `config.steps_per_clip` rows; chunks into `out_dir`.
 
     Returns the chunk descriptions (file name within out_dir, steps, episodes)."""
     from actors.actions import ActionMapper
     from actors.future_reference import FutureReference
-    from services.training.policy_source import load_policy_source
+    from services.experts.library import load_expert
 
-    source = load_policy_source(run_dir)
-    env = source.make_env()
-    policy = source.policy
+    policy = load_expert(experts_dir, clip, max_batch=1)
+    env = policy.make_env()
     future = FutureReference(env.track, env.humanoid)
     mean_mapper = ActionMapper(env.config.action_parameterisation, env.config.residual_action_scale)
     rng = np.random.default_rng(config.noise_seed + clip_index)
@@ -105,25 +105,26 @@ def record_clip(run_dir: str, clip_index: int, out_dir: str, config: RecordConfi
     return chunks
 
 
-def expert_runs(experts_dir: Path, clips: list[str] | None) -> dict[str, Path]:
-    """clip name -> run directory of each expert in `experts_dir` (all with a checkpoint when `clips` is None)."""
+def expert_clips(experts_dir: Path, clips: list[str] | None) -> list[str]:
+    """The clips to record, checked against `experts_dir` (`<clip>_mirror` needs `<clip>`'s run);
+    every expert run with a checkpoint when `clips` is None."""
+    from actors.mirror import MIRROR_SUFFIX
+
     experts_dir = Path(experts_dir)
     if not experts_dir.is_dir():
         raise SfvError(f"{experts_dir}: experts directory not found")
     if clips is None:
         clips = sorted(p.name for p in experts_dir.iterdir() if (p / "config.json").is_file() and any(p.glob("checkpoint_*.pt")))
-    runs = {}
     for clip in clips:
-        run = experts_dir / clip
+        run = experts_dir / clip.removesuffix(MIRROR_SUFFIX)
         if not (run / "config.json").is_file():
             raise SfvError(f"{run}: no expert run directory for clip {clip!r}")
-        runs[clip] = run
-    if not runs:
+    if not clips:
         raise SfvError(f"{experts_dir}: no expert run directories")
-    return runs
+    return list(clips)
 
 
-def record_dataset(runs: dict[str, Path], out: Path, config: RecordConfig, progress: bool = True) -> dict:
+def record_dataset(experts_dir: Path, clips: list[str], out: Path, config: RecordConfig, progress: bool = True) -> dict:
     """Record every clip (Ray tasks, resumable per clip) and assemble `out` with its manifest."""
     import ray
     from tqdm import tqdm
@@ -133,13 +134,12 @@ def record_dataset(runs: dict[str, Path], out: Path, config: RecordConfig, progr
     out = Path(out)
     if (out / MANIFEST).exists():
         raise SfvError(f"{out}: a dataset is already there (remove it or pick another directory)")
-    clips = list(runs)
     parts = out / PARTS
     pending = [i for i, clip in enumerate(clips) if not (parts / clip / "done.json").is_file()]
     if pending:
         with ray_session():
             task = ray.remote(num_cpus=1, max_retries=0)(record_clip)
-            refs = {task.remote(str(runs[clips[i]]), i, str(parts / clips[i]), config): i for i in pending}
+            refs = {task.remote(str(experts_dir), clips[i], i, str(parts / clips[i]), config): i for i in pending}
             with tqdm(total=len(refs), unit="clip", desc="record", disable=not progress) as bar:
                 while refs:
                     ready, _ = ray.wait(list(refs), num_returns=1)
@@ -152,7 +152,7 @@ def record_dataset(runs: dict[str, Path], out: Path, config: RecordConfig, progr
             name = chunk_name(len(chunks))
             (parts / clip / part["file"]).replace(out / name)
             chunks.append({**part, "file": name, "clip": i})
-    manifest = write_manifest(out, clips, chunks, {"experts": {clip: str(run) for clip, run in runs.items()},
+    manifest = write_manifest(out, clips, chunks, {"experts": str(experts_dir),
                                                    "record": asdict(config), "future_steps": 5})
     shutil.rmtree(parts, ignore_errors=True)
     return manifest
