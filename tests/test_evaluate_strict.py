@@ -271,32 +271,13 @@ def test_distance_ratio(walk, stand):
 @pytest.fixture(scope="module")
 def stand_run(tmp_path_factory):
     """A run directory on the standing clip with a real (untrained, small) checkpoint."""
-    import torch
+    from tests.stand_run import write_stand_run
 
-    from actors.features import observation_dim
-    from actors.imitation_env import EnvConfig
+    def zero_residual(policy):  # the character holds the reference
+        policy.mean_net[-1].weight.zero_()
+        policy.mean_net[-1].bias.zero_()
 
-    OBS_DIM = observation_dim(len(EnvConfig().reference_obs_steps))
-    from actors.motion_io import save_motion
-    from learner.checkpoint import checkpoint_path, save_checkpoint
-    from learner.ppo import PPOLearner
-    from services.training.config import TrainConfig
-    from services.training.run_dir import CONFIG_FILE
-
-    root = tmp_path_factory.mktemp("evalrun")
-    motion = save_motion(stand_motion(), root / "stand.npz")
-    run = root / "run"
-    run.mkdir()
-    config = TrainConfig(motion=str(motion), out=str(run), init="rsi", runner="in_process", env=EnvConfig(horizon_s=2.0))
-    config.ppo.policy_hidden, config.ppo.value_hidden = (32,), (16,)
-    (run / CONFIG_FILE).write_text(json.dumps(config.to_dict()))
-    learner = PPOLearner(OBS_DIM, 28, config.ppo)
-    with torch.no_grad():  # zero residual: the character holds the reference
-        learner.policy.mean_net[-1].weight.zero_()
-        learner.policy.mean_net[-1].bias.zero_()
-    save_checkpoint(checkpoint_path(run, 1), {"learner": learner.state_dict(), "policy_weights": learner.policy_weights(),
-                                              "samples": 128, "iteration": 1, "asi_version": 0, "config": config.to_dict()})
-    return run
+    return write_stand_run(tmp_path_factory.mktemp("evalrun"), stand_motion(), zero_residual)
 
 
 def test_sfv_eval_prints_one_json_object(stand_run, capsys):

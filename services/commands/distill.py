@@ -1,0 +1,83 @@
+"""`sfv distill EXPERTS --out MODULE`: record the experts' noisy rollouts and distil them into
+the NPMP motor module (004 §3.3).
+
+    sfv distill EXPERTS_DIR --out MODULE [--clips walk run ...] [--hold-out kick]
+                [--dataset DATA_DIR] [--steps-per-clip 20000] [--updates 6000] [--resume]
+
+EXPERTS_DIR holds one expert run directory per clip (`EXPERTS_DIR/<clip>/`, as `sfv train`
+writes them). The dataset (`services/motor/dataset.py`) is recorded into --dataset (default
+MODULE/dataset) unless one is there already; it is reused as it is (its clips are the ones
+recorded). --hold-out leaves clips out of training (one-shot imitation of unseen clips,
+`sfv one-shot`). The module directory is described in `services/motor/training.py`; a run cut
+short continues with --resume.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+
+def _add_config_flags(parser, cls, skip: tuple[str, ...] = ()) -> None:
+    for f in dataclasses.fields(cls):
+        if f.name in skip:
+            continue
+        default = f.default
+        kind = type(default)
+        flag = "--" + f.name.replace("_", "-")
+        if isinstance(default, tuple):
+            parser.add_argument(flag, type=int, nargs="+", default=None, help=f"{f.metadata['help']} (default {' '.join(map(str, default))})")
+        else:
+            parser.add_argument(flag, type=kind, default=None, help=f"{f.metadata['help']} (default {default})")
+
+
+def register(sub) -> None:
+    import argparse
+
+    from learner.motor_config import MotorModuleConfig
+    from services.motor.recorder import RecordConfig
+
+    p = sub.add_parser("distill", help="distil expert controllers into a latent motor module (NPMP)",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("experts", help="directory of expert run directories, one per clip")
+    p.add_argument("--out", required=True, help="module directory")
+    p.add_argument("--clips", nargs="+", default=None, help="clips to record (default: every expert with a checkpoint); <clip>_mirror: the mirrored expert of <clip>")
+    p.add_argument("--hold-out", nargs="+", default=(), metavar="CLIP", help="recorded clips left out of training")
+    p.add_argument("--dataset", default=None, help="dataset directory (default MODULE/dataset); recorded when absent")
+    p.add_argument("--updates", type=int, default=6000, help="gradient steps (default 6000)")
+    p.add_argument("--device", default="auto", help="torch device: auto (GPU when present), cpu, cuda, ...")
+    p.add_argument("--torch-threads", type=int, default=None, help="CPU threads for torch (default: torch's)")
+    p.add_argument("--resume", action="store_true", help="continue from the module directory's newest checkpoint")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    _add_config_flags(p, RecordConfig)
+    _add_config_flags(p, MotorModuleConfig, skip=("proprio_dim", "future_dim", "action_dim"))
+    p.set_defaults(handler=run)
+
+
+def _config(cls, args, skip: tuple[str, ...] = ()):
+    given = {f.name: getattr(args, f.name) for f in dataclasses.fields(cls) if f.name not in skip and getattr(args, f.name, None) is not None}
+    return cls(**given)
+
+
+def run(args) -> int:
+    from pathlib import Path
+
+    from learner.errors import SfvError
+    from learner.motor_config import MotorModuleConfig
+    from services.motor.dataset import MANIFEST
+    from services.motor.recorder import RecordConfig, expert_clips, record_dataset
+    from services.motor.training import Distiller, DistillRun
+
+    if args.updates < 1 or (args.torch_threads is not None and args.torch_threads < 1):
+        raise SfvError("distill: --updates and --torch-threads must be >= 1")
+    out = Path(args.out)
+    dataset = Path(args.dataset) if args.dataset else out / "dataset"
+    if out.exists() and any(out.glob("checkpoint_*.pt")) and not args.resume:
+        raise SfvError(f"{out}: a module is being trained there (add --resume to continue)")
+    if not (dataset / MANIFEST).is_file():
+        manifest = record_dataset(Path(args.experts), expert_clips(Path(args.experts), args.clips), dataset, _config(RecordConfig, args), progress=not args.quiet)
+        print(f"dataset {dataset}: {manifest['steps']} steps of {len(manifest['clips'])} clips, {manifest['bytes'] / 2**20:.0f} MiB")
+    config = _config(MotorModuleConfig, args, skip=("proprio_dim", "future_dim", "action_dim"))
+    distiller = Distiller(dataset, out, config, tuple(args.hold_out),
+                          DistillRun(args.updates, device=args.device, torch_threads=args.torch_threads, progress=not args.quiet))
+    distiller.train()
+    print(f"module {out}: trained on {', '.join(distiller.clips)} ({distiller.update} updates, {distiller.samples} steps seen)")
+    return 0
