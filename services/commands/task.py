@@ -37,6 +37,7 @@ def register(sub) -> None:
     p.add_argument("--torch-threads", type=int, default=None, help="learner torch threads (0: every core)")
     p.add_argument("--latent-scale", type=float, default=None, help="z = this x the policy's [-1, 1] action (default 1)")
     p.add_argument("--horizon-s", type=float, default=None, help="episode length in seconds (default 10)")
+    p.add_argument("--batch-size", type=int, default=None, help="samples per PPO iteration (default 4096)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out from its newest checkpoint")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--episodes", type=int, default=None, help="eval: episodes (default 32); render: episodes filmed (default 2)")
@@ -59,7 +60,7 @@ def build_config(args):
     saved = Path(args.out) / CONFIG_FILE
     if args.resume and saved.is_file():
         config = TaskConfig.from_dict(json.loads(saved.read_text()))
-        refused = [k for k in given if k not in SAFE_ON_RESUME] + list(env_given)
+        refused = [k for k in given if k not in SAFE_ON_RESUME] + list(env_given) + (["batch_size"] if args.batch_size else [])
         if TASK_NAMES[args.what] != config.env.task or args.action != config.env.action:
             refused.append(f"task/action ({args.what}, {args.action} vs the run's {config.env.task}, {config.env.action})")
         if refused:
@@ -68,7 +69,10 @@ def build_config(args):
     env = dict(task=TASK_NAMES[args.what], action=args.action, module=args.module, **env_given)
     from actors.tasks.config import TaskEnvConfig
 
-    return TaskConfig(out=str(args.out), env=TaskEnvConfig(**env), ppo=task_ppo(args.action), **given)
+    ppo = task_ppo(args.action)
+    if args.batch_size is not None:
+        ppo.batch_size = args.batch_size
+    return TaskConfig(out=str(args.out), env=TaskEnvConfig(**env), ppo=ppo, **given)
 
 
 def _train(args) -> int:

@@ -22,10 +22,15 @@ from services.training.config import RUNNER_NAMES
 ACTION_STD = {"latent": 0.3, "joint": 0.1}
 
 
+TASK_HIDDEN = (256, 256)
+
+
 def task_ppo(action: str) -> PPOConfig:
     """PPO settings of a task run: the imitation defaults, task rewards unbounded above (a
-    target bonus), exploration noise by action space."""
-    return PPOConfig(reward_max=None, action_std=ACTION_STD[action])
+    target bonus), exploration noise by action space, and 256-256 networks: the task policy
+    maps a few task features to a gait command (004 §3.4 uses small MLPs before its LSTM), and
+    a quarter of the imitation policy's forward cost leaves the CPU to the physics and decoder."""
+    return PPOConfig(reward_max=None, action_std=ACTION_STD[action], policy_hidden=TASK_HIDDEN, value_hidden=TASK_HIDDEN)
 
 
 @dataclass

@@ -40,8 +40,8 @@ class TaskTrainer(Trainer):
 
     def run(self) -> dict:
         config = self.config
+        probe = VectorTaskEnv(config.env, 1)  # the dims; a bad --module fails here, before anything is written
         checkpoint = self._prepare_run_dir()
-        probe = VectorTaskEnv(config.env, 1)  # the dims (and a bad --module fails here, before any worker)
         _set_torch_threads(config)
         learner = PPOLearner(probe.obs_dim, probe.action_dim, config.ppo, device=config.device)
         del probe
