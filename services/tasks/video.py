@@ -26,10 +26,10 @@ def _add_target(renderer: OffscreenRenderer, env: VectorTaskEnv) -> None:
     scene = renderer.scene
     if scene.ngeom + 2 > scene.maxgeom:
         return
-    centre = env.task.marker(0)
+    centre = env.task.marker(0)  # mjv_initGeom takes model-style sizes: a cylinder is (radius, half-height)
     radius = env.config.success_radius
     geom = scene.geoms[scene.ngeom]
-    mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_CYLINDER, np.array([radius, radius, 0.01]), centre + [0, 0, 0.01],
+    mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_CYLINDER, np.array([radius, 0.01, 0.0]), centre + [0, 0, 0.01],
                         np.eye(3).ravel(), np.asarray(TARGET_RGBA, np.float32))
     scene.ngeom += 1
     heading = getattr(env.task, "heading", None)
