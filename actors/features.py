@@ -161,7 +161,8 @@ class FeatureExtractor:
         bound, copies = self._copies[i]
         if bound is not data:
             # MjData's arrays are fixed views of its buffers: build the (row, field) pairs once.
-            copies = ((self.pos[i], data.xpos[1:]), (self.quat[i], data.xquat[1:]), (self.cvel[i], data.cvel[1:]),
+            links = slice(1, NUM_LINKS + 1)  # the walker's bodies; an arena's props come after them
+            copies = ((self.pos[i], data.xpos[links]), (self.quat[i], data.xquat[links]), (self.cvel[i], data.cvel[links]),
                       (self.com[i], data.subtree_com[1]), (self.com_vel[i], data.subtree_linvel[1]),
                       (self.root_xmat[i], data.xmat[1]),
                       (self.qpos[i], data.qpos), (self.qvel[i], data.qvel))

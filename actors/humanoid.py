@@ -98,6 +98,13 @@ def _actuators_xml() -> str:
     return "\n    ".join(lines)
 
 
+def _props_xml(arena) -> str:
+    """Bodies an arena adds after the walker (a movable box): after it, so the walker keeps
+    qpos[:35], qvel[:34] and bodies 1..15 whatever the scene holds."""
+    props = getattr(arena, "props_xml", None)
+    return props() if props is not None else ""
+
+
 def build_mjcf(config: PhysicsConfig = PhysicsConfig(), arena=None) -> str:
     """MJCF text of the humanoid in an arena (`actors/arena.py`; a flat floor by default). The
     arena brings its assets, world geoms and its contact pairs with the humanoid's geoms."""
@@ -115,7 +122,7 @@ def build_mjcf(config: PhysicsConfig = PhysicsConfig(), arena=None) -> str:
   </asset>
   <worldbody>
     {arena.worldbody_xml()}
-{_body_xml(0, config, "    ")}  </worldbody>
+{_body_xml(0, config, "    ")}{_props_xml(arena)}  </worldbody>
   <contact>
     {arena.contact_pairs_xml(walker_geoms, config.friction)}
   </contact>

@@ -1,0 +1,67 @@
+"""`sfv task eval`: deterministic episodes of a task policy and what they achieved.
+
+E episodes run side by side in one `VectorTaskEnv` (one batched policy forward per step), each
+env's first episode counted; the policy acts with its mean. Figures: success_rate (episodes
+that reached their first target within the horizon), time_to_target_s (mean seconds to the
+first target over those that did), fall_rate, targets_per_episode, return_mean,
+episode_seconds, and pose_log_density: the mean log-density of every pose the character held
+under the expert clips' pose prior (`pose_prior.py`; higher is more human-like), beside
+pose_log_density_experts, the same score of the clips' own frames (the human reference).
+"""
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from actors.tasks.vector_task_env import VectorTaskEnv
+from learner.policy import NumpyPolicy
+from services.tasks.pose_prior import PosePrior, clip_poses
+
+
+def run_episodes(env: VectorTaskEnv, policy: NumpyPolicy) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Each env's first episode from `env.reset()`: (per-episode arrays, (N, 28) poses held)."""
+    n = env.num_envs
+    first: dict[str, list] = {}
+    done = np.zeros(n, bool)
+    poses = []
+    obs = env.reset()
+    env.episodes.drain()
+    while not done.all():
+        obs, _, terminated, truncated, _ = env.step(policy.mean(obs))
+        ended = terminated | truncated
+        log = env.episodes.drain()  # entries in env order of this step's ended envs
+        for entry, i in enumerate(np.flatnonzero(ended)):
+            if not done[i]:
+                for key, values in log.items():
+                    first.setdefault(key, [None] * n)[i] = values[entry]
+        for i in np.flatnonzero(~done & ~ended):  # the pose after this step (ended envs were reset already)
+            data = env.datas[i]
+            mujoco.mj_transmission(env.model, data)
+            poses.append(data.actuator_length.copy())
+        done |= ended
+    return {k: np.asarray(v) for k, v in first.items()}, np.asarray(poses).reshape(-1, env.model.nu)
+
+
+def evaluate_task(env_config, weights: dict, episodes: int = 32, seed: int = 0, prior: PosePrior | None = None) -> dict:
+    from threadpoolctl import threadpool_limits
+
+    prior = prior or PosePrior.fit()
+    env = VectorTaskEnv(env_config, episodes, seed=seed)
+    policy = NumpyPolicy(weights, max_batch=episodes)
+    with threadpool_limits(1, user_api="blas"):
+        per_episode, poses = run_episodes(env, policy)
+    successes = per_episode["successes"].astype(bool)
+    times = per_episode["first_success_s"].astype(float)
+    experts = np.concatenate([prior.log_density(clip_poses(clip)) for clip in prior.clips])
+    return {
+        "episodes": int(episodes),
+        "success_rate": float(successes.mean()),
+        "time_to_target_s": float(np.nanmean(times)) if successes.any() else None,
+        "fall_rate": float(per_episode["fell"].astype(bool).mean()),
+        "targets_per_episode": float(per_episode["targets_reached"].mean()),
+        "return_mean": float(per_episode["returns"].mean()),
+        "episode_seconds": float(per_episode["lengths"].mean() / env_config.control_hz),
+        "pose_log_density": float(prior.log_density(poses).mean()) if len(poses) else None,
+        "pose_log_density_experts": float(experts.mean()),
+        "pose_prior": f"mixture of one Gaussian per clip ({len(prior.clips)} humanoid3d clips)",
+    }
