@@ -42,6 +42,7 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 RESULT = REPO / "bench" / "results" / "movingcam_synthetic.json"
+EPISODES = 16  # starts at phases k / 16, as the strict evaluation's
 
 
 def prepare(clip: str, noise_rad: float, seed: int, out: Path) -> Path:
@@ -68,14 +69,15 @@ def _yaw(quats: np.ndarray) -> np.ndarray:
     return qn.heading_angle(quats)
 
 
-def rollout_paths(policy, env, clean) -> dict:
-    """Deterministic episode from the first frame to the horizon or the clip's strict fall rule
-    (`services.training.evaluation`): simulated and true root xy and yaw per step, and the
-    contact agreement."""
+def rollout_paths(policy, env, clean, phase: float) -> dict:
+    """Deterministic episode from the reference state at `phase` (as the strict evaluation starts
+    its episodes) to the horizon or the clip's strict fall rule (`services.training.evaluation`):
+    simulated and true root xy and yaw per step, and the contact agreement."""
     from services.training.evaluation import strict_fall_detector
 
     fell = strict_fall_detector(env)
-    obs, _ = env.reset(seed=0, options={"init": "fsi"})
+    obs, _ = env.reset(seed=0, options={"init": "rsi", "phase": phase})
+    t0 = float(env.track.times[env.row])
     row = np.zeros((1, env.observation_space.shape[0]), np.float32)
     dt = 1.0 / env.config.control_hz
     sim_xy, sim_yaw, times, agree = [], [], [], []
@@ -91,8 +93,8 @@ def rollout_paths(policy, env, clean) -> dict:
         if terminated or truncated or fell(env.data):
             break
     times = np.asarray(times)
-    true = clean.sample(times)
-    true_xy = true.root_pos[:, :2] - clean.sample(np.zeros(1)).root_pos[0, :2] + start_xy
+    true = clean.sample(t0 + times)
+    true_xy = true.root_pos[:, :2] - clean.sample(np.array([t0])).root_pos[0, :2] + start_xy
     return {"times": times, "sim_xy": np.asarray(sim_xy), "true_xy": true_xy, "sim_yaw": np.asarray(sim_yaw),
             "true_yaw": _yaw(true.root_rot), "start_xy": start_xy, "contact_agreement": np.asarray(agree)}
 
@@ -102,7 +104,7 @@ def path_figures(paths: dict) -> dict:
     travelled = float(np.linalg.norm(np.diff(np.vstack((start, true)), axis=0), axis=1).sum())
     sim_travelled = float(np.linalg.norm(np.diff(np.vstack((start, sim)), axis=0), axis=1).sum())
     gap = np.linalg.norm(sim - true, axis=1)
-    yaw_gap = np.abs(np.angle(np.exp(1j * (paths["sim_yaw"] - paths["true_yaw"]))))
+    yaw_gap = np.degrees(np.abs(np.angle(np.exp(1j * (paths["sim_yaw"] - paths["true_yaw"])))))
     d_sim, d_true = sim[-1] - start, true[-1] - start
     cos = float(d_sim @ d_true / max(np.linalg.norm(d_sim) * np.linalg.norm(d_true), 1e-12))
     return {
@@ -112,15 +114,17 @@ def path_figures(paths: dict) -> dict:
         "path_error_per_m": float(gap.mean()) / travelled,
         "endpoint_error_per_m": float(gap[-1]) / travelled,
         "endpoint_error_m": float(gap[-1]),
-        "heading_error_deg": float(np.degrees(yaw_gap.mean())),
+        "heading_error_deg": float(yaw_gap.mean()),
+        "heading_error_end_deg": float(yaw_gap[-1]),
         "travel_direction_error_deg": float(np.degrees(math.acos(max(-1.0, min(1.0, cos))))),
         "distance_ratio": float(np.linalg.norm(d_sim) / max(np.linalg.norm(d_true), 1e-12)),
         "contact_accuracy": float(paths["contact_agreement"].mean()),
     }
 
 
-def plot_paths(paths: dict, png: Path, clip: str) -> None:
-    """Top view: the simulated root path against the clip's true one."""
+def plot_paths(episodes: list[dict], png: Path, clip: str) -> None:
+    """Top view: the simulated root paths against the clip's true ones, every episode moved to
+    start at the origin."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -128,16 +132,18 @@ def plot_paths(paths: dict, png: Path, clip: str) -> None:
 
     from learner.atomic_io import atomic_output
 
-    fig, ax = plt.subplots(figsize=(7, 4))
-    start = paths["start_xy"]
-    for key, label in (("true_xy", f"{clip}: true root path"), ("sim_xy", "simulated (root-free policy)")):
-        xy = np.vstack((start, paths[key]))
-        ax.plot(xy[:, 0], xy[:, 1], label=label)
+    fig, ax = plt.subplots(figsize=(8, 6))
+    for k, paths in enumerate(episodes):
+        start = paths["start_xy"]
+        for key, colour, label in (("true_xy", "tab:blue", f"{clip}: true root path"), ("sim_xy", "tab:orange", "simulated (root-free policy)")):
+            xy = np.vstack((start, paths[key])) - start
+            ax.plot(xy[:, 0], xy[:, 1], color=colour, lw=1, alpha=0.7, label=label if k == 0 else None)
+        ax.plot(*(paths["sim_xy"][-1] - start), "x", color="tab:orange", ms=4)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.legend()
-    ax.set_title(f"movingcam synthetic: {paths['times'][-1]:.1f} s survived")
+    ax.set_title(f"movingcam synthetic: {len(episodes)} episodes (x: where each ended)")
     png.parent.mkdir(parents=True, exist_ok=True)
     with atomic_output(png) as tmp:
         fig.savefig(tmp, format="png", dpi=100, bbox_inches="tight")
@@ -148,7 +154,7 @@ def report(out: Path, clip: str, noise_rad: float, command: str) -> dict:
     from threadpoolctl import threadpool_limits
 
     from actors.motion_io import load_motion
-    from services.training.evaluation import evaluate_policy, make_eval_env
+    from services.training.evaluation import evaluate_policy, make_eval_env, start_phases
     from services.training.policy_source import load_policy_source
     from services.training.run_dir import read_metrics
 
@@ -156,11 +162,15 @@ def report(out: Path, clip: str, noise_rad: float, command: str) -> dict:
     source = load_policy_source(run, None, None)
     env = make_eval_env(load_motion(source.motion), source.env_config)
     clean = load_motion(clip)
+    phases = start_phases(EPISODES)
     with threadpool_limits(1, user_api="blas"):
-        paths = rollout_paths(source.policy, env, clean)
-        strict = evaluate_policy(source.policy, env, 16, seed=0)
-    np.savez(out / "paths.npz", **{k: v for k, v in paths.items()})
-    plot_paths(paths, RESULT.with_suffix(".png"), clip)
+        episodes = [rollout_paths(source.policy, env, clean, float(p)) for p in phases]
+        strict = evaluate_policy(source.policy, env, EPISODES, seed=0)
+    figures = [path_figures(paths) for paths in episodes]
+    plot_paths(episodes, RESULT.with_suffix(".png"), clip)
+    survivors = [f for f in figures if f["survived_s"] >= 0.99 * env.config.horizon_s]
+    summary = {key: float(np.mean([f[key] for f in figures])) for key in figures[0]}
+    summary_survivors = {key: float(np.mean([f[key] for f in survivors])) for key in figures[0]} if survivors else None
     curve = [{"samples": m["samples"], "normalized_return": m["eval/normalized_return"], "fall_rate": m["eval/fall_rate"],
               "episode_seconds": m["eval/episode_seconds"]} for m in read_metrics(run) if "eval/normalized_return" in m]
     result = {
@@ -168,7 +178,11 @@ def report(out: Path, clip: str, noise_rad: float, command: str) -> dict:
                 f"{noise_rad} rad noise on joint rotations; trained root-free in movingcam mode; root path from physics "
                 "against the clip's true path (deterministic episode from the first frame)",
         "command": command,
-        "path": path_figures(paths),
+        "episodes": EPISODES,
+        "path_mean_over_episodes": summary,
+        "path_mean_over_episodes_reaching_the_horizon": summary_survivors,
+        "episodes_reaching_the_horizon": len(survivors),
+        "path_per_episode": [{"phase": float(p), **{k: round(v, 4) for k, v in f.items()}} for p, f in zip(phases, figures)],
         "eval_002_reward": {k: strict[k] for k in ("normalized_return", "fall_rate", "episode_seconds", "joint_rotation_error_rad", "episodes")},
         "eval_curve": curve,
         "written": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
