@@ -202,7 +202,9 @@ def _at(curve: dict, key: str, seconds: float):
 def markdown_table(table: dict) -> str:
     fmt = lambda v, spec: "-" if v is None or (isinstance(v, float) and math.isnan(v)) else format(v, spec)  # noqa: E731
     lines = [f"Experts in `{table['experts_dir']}`: {table['episodes']} strict evaluation episodes each; tracking error at "
-             f"1 s and 3 s after initialisation from {table['curve_starts']} starts (Fig. 3B).", "",
+             f"1 s and 3 s after initialisation from {table['curve_starts']} starts (Fig. 3B). Survival: mean seconds before a strict "
+             "fall or the episode's end (a clip that does not loop ends with the clip); NR - original: a mirrored expert's NR "
+             "minus its original's.", "",
              "| clip | samples | NR | fall rate | survival (s) | joint rot. err (rad) | end-eff. err (m) | rot. err @1 s | @3 s | NR - original |",
              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for row in table["experts"]:
