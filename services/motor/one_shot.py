@@ -55,23 +55,43 @@ class OneShotPolicy:
         targets = np.clip(self.decoder(self.proprio, self.z), env.actions.lower, env.actions.upper)
         return targets / env.actions.scale
 
+    def act(self, obs: np.ndarray, deterministic: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """The `act` contract of the render and export rollouts (always the deterministic action)."""
+        return self.mean(obs), np.zeros(1, np.float32)
+
+
+def one_shot_env_and_policy(module_dir: str | Path, expert) -> tuple:
+    """The clip's env with absolute targets (the expert's other settings) and the one-shot controller on it."""
+    from actors.imitation_env import ImitationEnv
+    from actors.motion_io import load_motion
+    from learner.motor_decoder import LatentDecoder
+    from services.motor.training import load_module
+
+    env = ImitationEnv(load_motion(expert.motion), dataclasses.replace(expert.env_config, residual_action_scale=None))
+    return env, OneShotPolicy(env, load_module(Path(module_dir)), LatentDecoder.load(module_dir))
+
+
+def render_one_shot(module_dir: str | Path, experts_dir: str | Path, clip: str, out: Path, seconds: float | None) -> dict:
+    """An MP4 of the one-shot controller beside the clip's ghost (`sfv render`'s film)."""
+    from services.experts.library import load_expert
+    from services.render.movie import RenderConfig, render_policy
+
+    env, policy = one_shot_env_and_policy(module_dir, load_expert(experts_dir, clip, max_batch=1))
+    return render_policy(policy, env, out, RenderConfig(seconds=seconds, label=f"one-shot {clip} ({Path(module_dir).name})"))
+
 
 def evaluate_clip(module_dir: str, experts_dir: str, clip: str, episodes: int) -> dict:
     """Expert and one-shot figures for `clip` (its expert from `experts_dir`, mirrored ones included)."""
     import torch
 
-    from actors.imitation_env import ImitationEnv
-    from actors.motion_io import load_motion
-    from learner.motor_decoder import LatentDecoder
     from services.experts.library import load_expert
-    from services.motor.training import load_module
     from services.training.evaluation import evaluate_policy
 
     torch.set_num_threads(1)
     source = load_expert(experts_dir, clip, max_batch=1)
     expert = evaluate_policy(source, source.make_env(), episodes)
-    env = ImitationEnv(load_motion(source.motion), dataclasses.replace(source.env_config, residual_action_scale=None))
-    one_shot = evaluate_policy(OneShotPolicy(env, load_module(Path(module_dir)), LatentDecoder.load(module_dir)), env, episodes)
+    env, policy = one_shot_env_and_policy(module_dir, source)
+    one_shot = evaluate_policy(policy, env, episodes)
     summary = {name: {key: result.get(key) for key in SUMMARY_KEYS} for name, result in (("expert", expert), ("one_shot", one_shot))}
     summary["relative_return"] = one_shot["normalized_return"] / max(expert["normalized_return"], 1e-9)
     summary["relative_survival"] = one_shot["episode_seconds"] / max(expert["episode_seconds"], 1e-9)
@@ -124,7 +144,8 @@ def plot_relative(record: dict, path: Path) -> None:
     ax.axhline(1.0, color="k", lw=0.8)
     ax.set_xticks(x, [f"{c}\n(held out)" if record["clips"][c]["held_out"] else c for c in clips])
     ax.set_title("one-shot imitation relative to each clip's expert (004 Fig. A.1)", fontsize=9)
-    ax.legend(fontsize=8)
+    ax.set_ylim(0, 1.3)
+    ax.legend(fontsize=8, ncol=2, loc="upper center")
     fig.tight_layout()
     with atomic_output(path, suffix=".png") as tmp:
         fig.savefig(tmp)
