@@ -19,7 +19,8 @@ so attacks the same imbalance; the paper's Fig. 14 compares adaptive sampling al
 
 "samples" are collected environment steps (the simulation cost); adaptive trains on fewer of
 them per update, so training time is reported beside them. A rerun resumes an arm that has
-checkpoints (`--resume` rules) and skips one that has reached the budget.
+checkpoints (`--resume` rules) and skips one that has reached the budget; `--report-only` rewrites
+OUT from the runs as they are.
 """
 from __future__ import annotations
 
@@ -124,7 +125,9 @@ def plot(result: dict, out: Path) -> Path:
     c.step(np.linspace(0, result["frames"], len(collected) + 1)[:-1], collected / collected.sum(), where="post", color="grey", ls=":", label="all: collected")
     a.set(xlabel="collected samples", ylabel="eval normalised return (strict)", title=f"{result['motion']}, {result['horizon_s']:g} s horizon")
     b.set(xlabel="training time, s (evaluations excluded)", ylabel="eval normalised return", title="against time")
-    c.set(xlabel="frame (reference row)", ylabel="share of tuples", title="frame coverage over the run", yscale="log")
+    reached = np.flatnonzero(collected)
+    c.set(xlabel="frame (reference row)", ylabel="share of tuples", title="frame coverage over the run", yscale="log",
+          xlim=(0, (reached[-1] + 2) * result["frames"] / len(collected) if reached.size else result["frames"]))
     for ax in (a, b, c):
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
@@ -146,13 +149,14 @@ def main(argv=None) -> int:
                         help="eval NRs to report the samples (and training time) to, comma separated")
     parser.add_argument("--runs-dir", default="runs/adaptive_sampling")
     parser.add_argument("--out", default="bench/results/adaptive_sampling.json")
+    parser.add_argument("--report-only", action="store_true", help="write OUT from the runs as they are, training nothing")
     args = parser.parse_args(argv)
     from actors.imitation_env import ImitationEnv
     from actors.motion_io import load_motion
     from services.training.run_dir import write_json_atomic
 
     started = time.time()
-    for arm in ARMS:
+    for arm in ARMS if not args.report_only else ():
         train_arm(args, arm)
     config = train_config(args, "all")
     frames = ImitationEnv(load_motion(args.motion), config.env).track.rows
