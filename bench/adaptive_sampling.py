@@ -87,6 +87,7 @@ def arm_result(run_dir: Path, thresholds=THRESHOLDS) -> dict:
         "iterations": len(rows),
         "train_s": float(iteration_s.sum()),  # collect + update + bookkeeping, evaluations excluded
         "sampling_s": float(sampling_s.sum()),
+        "sampling_samples_per_s_median": float(np.median(steps / sampling_s)),  # the machine's load during the arm
         "update_s": float((iteration_s - sampling_s).sum()),
         "eval_s": float(eval_s.sum()),
         "eval_curve": {"samples": ev.get("samples", []), "train_s": [at.get(s) for s in ev.get("samples", [])],
@@ -166,7 +167,8 @@ def main(argv=None) -> int:
         "motion": args.motion, "horizon_s": config.env.horizon_s, "frames": frames, "seed": args.seed,
         "init": config.init, "workers": args.workers, "envs_per_worker": args.envs_per_worker, "runner": args.runner,
         "batch_size": config.ppo.batch_size, "eval_every": args.eval_every, "eval_episodes": args.eval_episodes,
-        "machine": "2 cores shared with other trainings (runs serialised by a CPU lock)",
+        "machine": "2 cores shared with other trainings (runs serialised by a CPU lock, other load not): compare "
+                   "times only where the arms' sampling_samples_per_s_median agree",
         "wall_s_this_invocation": time.time() - started,
         "arms": {arm: arm_result(Path(args.runs_dir) / arm, args.thresholds) for arm in ARMS},
     }
