@@ -19,7 +19,8 @@ so attacks the same imbalance; the paper's Fig. 14 compares adaptive sampling al
 
 "samples" are collected environment steps (the simulation cost); adaptive trains on fewer of
 them per update, so training time is reported beside them. A rerun resumes an arm that has
-checkpoints (`--resume` rules) and skips one that has reached the budget.
+checkpoints (`--resume` rules) and skips one that has reached the budget; `--report-only` rewrites
+OUT from the runs as they are.
 """
 from __future__ import annotations
 
@@ -86,6 +87,7 @@ def arm_result(run_dir: Path, thresholds=THRESHOLDS) -> dict:
         "iterations": len(rows),
         "train_s": float(iteration_s.sum()),  # collect + update + bookkeeping, evaluations excluded
         "sampling_s": float(sampling_s.sum()),
+        "sampling_samples_per_s_median": float(np.median(steps / sampling_s)),  # the machine's load during the arm
         "update_s": float((iteration_s - sampling_s).sum()),
         "eval_s": float(eval_s.sum()),
         "eval_curve": {"samples": ev.get("samples", []), "train_s": [at.get(s) for s in ev.get("samples", [])],
@@ -124,7 +126,9 @@ def plot(result: dict, out: Path) -> Path:
     c.step(np.linspace(0, result["frames"], len(collected) + 1)[:-1], collected / collected.sum(), where="post", color="grey", ls=":", label="all: collected")
     a.set(xlabel="collected samples", ylabel="eval normalised return (strict)", title=f"{result['motion']}, {result['horizon_s']:g} s horizon")
     b.set(xlabel="training time, s (evaluations excluded)", ylabel="eval normalised return", title="against time")
-    c.set(xlabel="frame (reference row)", ylabel="share of tuples", title="frame coverage over the run", yscale="log")
+    reached = np.flatnonzero(collected)
+    c.set(xlabel="frame (reference row)", ylabel="share of tuples", title="frame coverage over the run", yscale="log",
+          xlim=(0, (reached[-1] + 2) * result["frames"] / len(collected) if reached.size else result["frames"]))
     for ax in (a, b, c):
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
@@ -146,13 +150,14 @@ def main(argv=None) -> int:
                         help="eval NRs to report the samples (and training time) to, comma separated")
     parser.add_argument("--runs-dir", default="runs/adaptive_sampling")
     parser.add_argument("--out", default="bench/results/adaptive_sampling.json")
+    parser.add_argument("--report-only", action="store_true", help="write OUT from the runs as they are, training nothing")
     args = parser.parse_args(argv)
     from actors.imitation_env import ImitationEnv
     from actors.motion_io import load_motion
     from services.training.run_dir import write_json_atomic
 
     started = time.time()
-    for arm in ARMS:
+    for arm in ARMS if not args.report_only else ():
         train_arm(args, arm)
     config = train_config(args, "all")
     frames = ImitationEnv(load_motion(args.motion), config.env).track.rows
@@ -162,7 +167,8 @@ def main(argv=None) -> int:
         "motion": args.motion, "horizon_s": config.env.horizon_s, "frames": frames, "seed": args.seed,
         "init": config.init, "workers": args.workers, "envs_per_worker": args.envs_per_worker, "runner": args.runner,
         "batch_size": config.ppo.batch_size, "eval_every": args.eval_every, "eval_episodes": args.eval_episodes,
-        "machine": "2 cores shared with other trainings (runs serialised by a CPU lock)",
+        "machine": "2 cores shared with other trainings (runs serialised by a CPU lock, other load not): compare "
+                   "times only where the arms' sampling_samples_per_s_median agree",
         "wall_s_this_invocation": time.time() - started,
         "arms": {arm: arm_result(Path(args.runs_dir) / arm, args.thresholds) for arm in ARMS},
     }
