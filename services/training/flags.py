@@ -131,7 +131,7 @@ SAFE_ON_RESUME = frozenset({
     "keep_checkpoints", "plot_every", "plot_min_interval_s", "eval_every", "eval_episodes", "curriculum_start_s",
     "curriculum_samples", "asi_episodes_per_update", "asi_step_size",
     "ppo.policy_lr", "ppo.value_lr", "ppo.update_epochs", "ppo.target_kl", "ppo.batch_size", "ppo.minibatch_size",
-    "ppo.max_grad_norm", "ppo.clip_coef", "ppo.sgd_momentum",
+    "ppo.max_grad_norm", "ppo.clip_coef", "ppo.sgd_momentum", "ppo.tuple_sampling", "ppo.tuples_per_episode",
 })
 SKIPPED = frozenset({"out"})  # its own flag: required unless --print-config or a config file gives it
 
@@ -346,11 +346,14 @@ def resolve(given: dict[str, Any], flags: dict[str, str], base: dict | None = No
 
 def movingcam_preset(given: dict, flags: dict) -> tuple[dict, dict]:
     """`--reward movingcam`: the env's movingcam mode with 002's reward and termination defaults
-    and residual targets (eq. 1: q_target = q_ref + a), under whatever the user gave."""
+    residual targets (eq. 1: q_target = q_ref + a) and adaptive tuple sampling (eq. 13), under
+    whatever the user gave."""
     from actors.imitation_env import EnvConfig
     from actors.movingcam import MovingcamConfig
 
-    preset = {"env.mode": "movingcam", "env.residual_action_scale": EnvConfig().residual_action_scale or 0.5}
+    # Adaptive tuple sampling (002 §5.2, eq. 13) comes with the mode, as in the paper.
+    preset = {"env.mode": "movingcam", "env.residual_action_scale": EnvConfig().residual_action_scale or 0.5,
+              "ppo.tuple_sampling": "adaptive"}
     for leaf in leaves(MovingcamConfig, "env.movingcam."):
         preset[leaf.path] = leaf.default
     return {**preset, **given}, {**dict.fromkeys(preset, "--reward"), **flags}
