@@ -78,3 +78,20 @@ def test_objective_gradient_matches_finite_differences():
         minus = objective_terms(windows, LAYOUT, torch.tensor(e.detach().numpy() - step)).sum()
         numeric.append(float(plus - minus) / (2 * h))
     np.testing.assert_allclose(e.grad.numpy(), numeric, rtol=1e-3)
+
+
+def test_a_window_ending_with_the_clip_scores_its_start_alone():
+    """The clip's end is an episode's end: V there is 0 by definition, so the end observations
+    (here ones whose V would pull the optimum elsewhere) do not count."""
+    class StartOnly(QuadraticValue):
+        def torch_values(self, obs):
+            scene = obs[:, OBS_DIM - len(self.target):]
+            return (1.0 - ((scene - self.target) ** 2).sum(dim=1)) * (obs[:, 0] > 0.5) + 5.0 * scene[:, 0] * (obs[:, 0] <= 0.5)
+
+    truth = np.array([1.05, 0.2])
+    terms = _terms(StartOnly(LAYOUT.entries(truth)))
+    terms.end_obs = None
+    result = fit_scene([terms], LAYOUT, np.array([1.0, 0.3]), BOUNDS)
+    np.testing.assert_allclose(result.scene, truth, atol=1e-4)
+    with_end = fit_scene([_terms(StartOnly(LAYOUT.entries(truth)))], LAYOUT, np.array([1.0, 0.3]), BOUNDS)
+    assert with_end.scene[0] < 0.75  # the end's term (falling in along) drags it to the lower bound

@@ -63,3 +63,17 @@ def test_window_motion_cuts_frames_and_extras_and_moves_the_root():
     drift = motion.root_pos[window.start:window.end + 1, :2] - motion.root_pos[window.start, :2]
     np.testing.assert_allclose(cut.root_pos[:, :2] - cut.root_pos[0, :2], drift)
     np.testing.assert_allclose(cut.joint_rot, motion.joint_rot[window.start:window.end + 1])
+
+
+def test_control_steps_follow_time_not_clip_frames():
+    from actors.motion import ReferenceMotion
+    from services.scene_fit.window_motion import clip_frame, control_steps
+    from services.scene_fit.windows import Window
+
+    frames = 121  # 60 fps, 2 s
+    identity = np.tile([1.0, 0.0, 0.0, 0.0], (frames, 1))
+    motion = ReferenceMotion("m", np.arange(frames) / 60.0, np.zeros((frames, 3)), identity,
+                             np.tile(identity[:, None], (1, 12, 1)))
+    window = Window(0, 0, 90, 120, ())
+    assert control_steps(window, motion, 30.0) == 45  # 1.5 s at 30 Hz
+    assert clip_frame(Window(1, 30, 60, 120, ()), motion, 10, 30.0) == 30 + 20

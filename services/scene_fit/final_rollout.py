@@ -24,6 +24,7 @@ from actors.skeleton import NUM_JOINTS
 from services.scene_fit import scene_contract
 from services.scene_fit.handover import WindowRollouts, start_episode
 from services.scene_fit.motion_scores import contact_accuracy, foot_contacts, mpjpe
+from services.scene_fit.window_motion import clip_frame, control_steps
 
 
 @dataclass
@@ -33,14 +34,15 @@ class SimulatedRun:
     reference_links: np.ndarray  # (T, L, 3)
     contacts: np.ndarray  # (T, 2) simulated foot contacts (right, left)
     window_of_frame: np.ndarray  # (T,) the window whose policy produced each frame
-    fell_at_frame: int | None
+    clip_frames: np.ndarray  # (T,) the clip frame nearest to each simulated frame (control steps)
+    fell_at_frame: int | None  # clip frame
     control_hz: float
 
     def motion(self, name: str, layout) -> ReferenceMotion:
         joint_rot = np.empty((len(self.qpos), NUM_JOINTS, 4))
         for t, q in enumerate(self.qpos):
             layout.joint_quats_from_qpos(q, joint_rot[t])
-        extras = {"simulated_contacts": self.contacts, "window_of_frame": self.window_of_frame}
+        extras = {"simulated_contacts": self.contacts, "window_of_frame": self.window_of_frame, "clip_frame": self.clip_frames}
         return ReferenceMotion(name, np.arange(len(self.qpos)) / self.control_hz, self.qpos[:, 0:3].copy(),
                                self.qpos[:, 3:7].copy(), joint_rot, loop=False, extras=extras)
 
@@ -48,7 +50,7 @@ class SimulatedRun:
         out = {"mpjpe_mm": 1000.0 * mpjpe(self.reference_links, self.links), "frames": int(len(self.qpos)),
                "fell_at_frame": self.fell_at_frame}
         if reference_contacts is not None:
-            out["contact_accuracy"] = contact_accuracy(reference_contacts[: len(self.contacts)], self.contacts)
+            out["contact_accuracy"] = contact_accuracy(np.asarray(reference_contacts)[self.clip_frames], self.contacts)
         travel = self.qpos[-1, :2] - self.qpos[0, :2]
         out["root_travel_m"] = float(np.linalg.norm(travel))
         return out
@@ -60,16 +62,17 @@ class _Recorder:
         self.body_ids = humanoid.body_ids
         self.foot_geoms = humanoid.model.body_geomadr[humanoid.body_ids[list(FOOT_LINKS)]]
         self.ghost = mujoco.MjData(humanoid.model)
-        self.rows = {k: [] for k in ("qpos", "links", "reference_links", "contacts", "window")}
+        self.rows = {k: [] for k in ("qpos", "links", "reference_links", "contacts", "window", "clip_frame")}
 
-    def record(self, env: ImitationEnv, window: int) -> None:
+    def record(self, env: ImitationEnv, window, frame: int) -> None:
         self.rows["qpos"].append(env.data.qpos.copy())
         self.rows["links"].append(env.data.xpos[self.body_ids].copy())
         self.ghost.qpos[:] = env.track.qpos[env.row]
         mujoco.mj_kinematics(env.model, self.ghost)
         self.rows["reference_links"].append(self.ghost.xpos[self.body_ids].copy())
         self.rows["contacts"].append(foot_contacts(env.model, env.data, self.foot_geoms))
-        self.rows["window"].append(window)
+        self.rows["window"].append(window.index)
+        self.rows["clip_frame"].append(frame)
 
 
 def _handover_of(env: ImitationEnv) -> WindowRollouts:
@@ -93,20 +96,24 @@ def final_rollout(runs, e=None, seed: int = 0) -> SimulatedRun:
         if e is not None:
             scene_contract.set_env_scene(env, run.window_e(e))
         policy = NumpyPolicy(weights, max_batch=1)
+        motion = env.motion
+        frame_of = lambda row: clip_frame(run.window, motion, row, control_hz)  # noqa: E731
         obs = start_episode(env, seed, handover, 0)
         if recorder is None:
             recorder = _Recorder(env)
-            recorder.record(env, run.window.index)
-        for _ in range(run.window.control_steps):
+            recorder.record(env, run.window, frame_of(env.row))
+        for _ in range(min(control_steps(run.window, motion, control_hz), env.max_episode_steps)):
             action, _ = policy.act(obs[None], deterministic=True)
-            obs, _, terminated, _, _ = env.step(action[0])
-            recorder.record(env, run.window.index)
+            obs, _, terminated, truncated, _ = env.step(action[0])
+            recorder.record(env, run.window, frame_of(env.row))
             if terminated:
-                fell = run.window.start + env.row
+                fell = frame_of(env.row)
+                break
+            if truncated:
                 break
         if fell is not None:
             break
         handover = _handover_of(env)
     rows = {k: np.asarray(v) for k, v in recorder.rows.items()}
     return SimulatedRun(rows["qpos"], rows["links"], rows["reference_links"], rows["contacts"], rows["window"],
-                        fell, control_hz)
+                        rows["clip_frame"], fell, control_hz)

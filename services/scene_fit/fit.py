@@ -4,7 +4,11 @@
 V_n is window n's value network (`value.py`); s(t_{n-1}) and s(t_n) are the observations its
 rollouts recorded at the window's first frame and at its control end (`handover.py`), with
 their scene entries (the observation's last entries, `scene_contract`) replaced by e. Each
-f_n is the mean over that window's rollouts. The objective's gradient comes from torch
+f_n is the mean over that window's rollouts. The last window's t_N is the clip's end, where
+the episode ends: nothing is left to earn there, so V_N(s(t_N), e) is 0 by definition (the
+network's output at an episode's last state is an untrained extrapolation, and where the
+rollouts fell short of the end it would be the value of the state before a fall), and f_N is
+V_N(s(t_{N-1}), e) alone. The objective's gradient comes from torch
 autograd, exact where the observation normaliser does not clip.
 
 Deviation: SLSQP is a local method; it starts from the user's scene (the paper's "rough
@@ -28,7 +32,7 @@ class WindowTerms:
 
     value: object  # has torch_values(obs (n, obs_dim) tensor) -> (n,) tensor
     start_obs: np.ndarray  # (n, obs_dim): s(t_{n-1})
-    end_obs: np.ndarray  # (n, obs_dim): s(t_n)
+    end_obs: np.ndarray | None  # (n, obs_dim): s(t_n); None where t_n is the clip's end (V = 0 there)
 
 
 @dataclass(frozen=True)
@@ -80,8 +84,10 @@ def objective_terms(windows: list[WindowTerms], layout: SceneObs, e: torch.Tenso
     terms = []
     for w in windows:
         start = layout.put(torch.as_tensor(w.start_obs, dtype=torch.float32), e)
-        end = layout.put(torch.as_tensor(w.end_obs, dtype=torch.float32), e)
-        terms.append(w.value.torch_values(start).mean() - w.value.torch_values(end).mean())
+        term = w.value.torch_values(start).mean()
+        if w.end_obs is not None:
+            term = term - w.value.torch_values(layout.put(torch.as_tensor(w.end_obs, dtype=torch.float32), e)).mean()
+        terms.append(term)
     return torch.stack(terms)
 
 

@@ -80,7 +80,8 @@ def roll_window(policy, env: ImitationEnv, control_steps: int, episodes: int, se
         obs = start_episode(env, seed + k, handover, k)
         rows["start_obs"].append(obs.copy())
         steps, fell = 0, False
-        while steps < control_steps:
+        limit = min(control_steps, env.max_episode_steps)  # the window's reference ends there
+        while steps < limit:
             action, _ = policy.act(obs[None], rng, deterministic=(k == 0))
             next_obs, _, terminated, truncated, _ = env.step(action[0])
             if terminated:  # a fall: the observation before it is kept, the episode not handed over
@@ -93,6 +94,6 @@ def roll_window(policy, env: ImitationEnv, control_steps: int, episodes: int, se
         rows["states"].append(env.state_vector())
         rows["qpos"].append(env.data.qpos.copy())
         rows["qvel"].append(env.data.qvel.copy())
-        rows["reached"].append(not fell and steps >= control_steps)
+        rows["reached"].append(not fell and steps >= limit)
         rows["steps"].append(steps)
     return WindowRollouts(**{k: np.asarray(v) for k, v in rows.items()})

@@ -25,7 +25,7 @@ from actors.motion_io import save_motion
 from learner.atomic_io import atomic_write_json
 from services.scene_fit import scene_contract
 from services.scene_fit.handover import WindowRollouts, roll_window
-from services.scene_fit.window_motion import window_motion
+from services.scene_fit.window_motion import control_steps, window_motion
 from services.scene_fit.window_scene import window_scene
 from services.scene_fit.windows import Window
 from services.training.config import TrainConfig
@@ -116,7 +116,8 @@ def train_window(run: WindowRun, clip: ReferenceMotion, scene, initial_e, base: 
     if scene is not None:
         scene_contract.set_env_scene(env, run.window_e(initial_e))
     handover = None if previous is None else previous.handover()
-    result = roll_window(NumpyPolicy(weights, max_batch=1), env, run.window.control_steps, rollouts,
+    steps = control_steps(run.window, motion, trained.env.control_hz)
+    result = roll_window(NumpyPolicy(weights, max_batch=1), env, steps, rollouts,
                          seed=base.seed + 7919 * (run.window.index + 1), handover=handover)
     result.save(run.rollouts_path)
     atomic_write_json(run.directory / DONE_FILE, {

@@ -50,13 +50,15 @@ def plan_windows(num_frames: int, scene, max_objects: int = MAX_OBJECTS) -> list
 
 def window_terms(runs) -> list[WindowTerms]:
     """Each trained window's value network and its rollouts' observations (those that reached
-    the control end), the terms of eq. 14."""
+    the control end), the terms of eq. 14; the last window's control end is the clip's end,
+    whose value is 0 (`fit.py`)."""
     from services.scene_fit.value import ValueFunction
 
     terms = []
-    for run in runs:
+    for k, run in enumerate(runs):
         rollouts = run.rollouts().handover()
-        terms.append(WindowTerms(ValueFunction.from_run(run.train_dir), rollouts.start_obs, rollouts.end_obs))
+        last = k == len(runs) - 1
+        terms.append(WindowTerms(ValueFunction.from_run(run.train_dir), rollouts.start_obs, None if last else rollouts.end_obs))
     return terms
 
 

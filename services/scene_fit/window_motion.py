@@ -27,3 +27,15 @@ def window_motion(motion: ReferenceMotion, window: Window, root_xy: np.ndarray |
     times = motion.frame_times[rows] - motion.frame_times[window.start]
     return ReferenceMotion(f"{motion.name}-w{window.index}", times, root_pos, motion.root_rot[rows].copy(),
                            motion.joint_rot[rows].copy(), loop=False, extras=extras)
+
+
+def control_steps(window: Window, motion: ReferenceMotion, control_hz: float) -> int:
+    """Control steps from the window's first frame to where its policy hands over: clip frames
+    and control steps differ wherever the clip's frame rate is not the control rate."""
+    return int(round(float(motion.frame_times[window.control_end - window.start]) * control_hz))
+
+
+def clip_frame(window: Window, motion: ReferenceMotion, row: int, control_hz: float) -> int:
+    """The clip frame nearest to control step `row` of the window's episode."""
+    local = np.interp(row / control_hz, motion.frame_times, np.arange(motion.num_frames))
+    return window.start + int(np.rint(local))

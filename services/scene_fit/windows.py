@@ -42,11 +42,6 @@ class Window:
     def frames(self) -> int:
         return self.end - self.start + 1
 
-    @property
-    def control_steps(self) -> int:
-        """Control steps from the window's first frame to where its policy hands over."""
-        return self.control_end - self.start
-
     def to_dict(self) -> dict:
         return {"index": self.index, "start": self.start, "control_end": self.control_end, "end": self.end,
                 "boxes": list(self.boxes)}
