@@ -86,7 +86,7 @@ def scene_arena(scene: Scene, motion) -> BoxArena:
     return BoxArena(scene, SceneFrame.of_motion(motion))
 
 
-def scene_humanoid(physics, scene_path: str | None, motion):
+def scene_humanoid(physics, scene_path: str | None, motion, check_start_pose: bool = True):
     """The humanoid in the flat floor (no scene file: the default model, unchanged) or in the
     boxes of `scene_path`, checked against `motion`'s start pose."""
     from actors.humanoid import Humanoid
@@ -94,4 +94,4 @@ def scene_humanoid(physics, scene_path: str | None, motion):
 
     if scene_path is None:
         return Humanoid(physics)
-    return Humanoid(physics, scene_arena(load_scene(scene_path, motion), motion))
+    return Humanoid(physics, scene_arena(load_scene(scene_path, motion if check_start_pose else None), motion))

@@ -68,6 +68,7 @@ class EnvConfig:
     movingcam: MovingcamConfig = field(default_factory=MovingcamConfig, metadata={"help": "the movingcam mode's reward and termination"})
     state_space: str = field(default="rotvec", metadata={"choices": ("rotvec", "qpos"), "help": "coordinates of the initial-state vectors ASI learns a Gaussian over: rotvec (rotations as rotation vectors, 66-D) or qpos (SFV's raw qpos[2:] + qvel, 75-D, quaternion entries perturbed one by one)"})
     scene: str | None = field(default=None, metadata={"help": "scene file (YAML, boxes along the clip's initial heading: actors/scene.py) put on the floor; the scene vector joins the observation and 002's scene reward the reward; none: the flat floor"})
+    scene_check_start_pose: bool = field(default=True, metadata={"help": "refuse a scene file whose box can cover the clip's first frame (off: a scene-fit window that starts at a box)"})
     scene_randomise: bool = field(default=True, metadata={"help": "draw each episode's box positions and heights uniformly in the scene file's domains (002 section 5.3: the value function must generalise over the scene); off: the file's values"})
 
     def __post_init__(self):
@@ -107,7 +108,7 @@ class ImitationEnv(gym.Env):
     def __init__(self, motion: ReferenceMotion, config: EnvConfig = EnvConfig(), humanoid: Humanoid | None = None, track: ReferenceTrack | None = None):
         self.config = config
         self.motion = motion
-        self.humanoid = humanoid or scene_humanoid(config.physics, config.scene, motion)
+        self.humanoid = humanoid or scene_humanoid(config.physics, config.scene, motion, config.scene_check_start_pose)
         self.box_arena = self.humanoid.arena if isinstance(self.humanoid.arena, BoxArena) else None
         # With boxes each env moves its own (the model is what set_scene edits).
         self.model = self.humanoid.model if self.box_arena is None else copy.copy(self.humanoid.model)

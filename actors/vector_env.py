@@ -48,7 +48,7 @@ class EpisodeLog:
 
 class VectorImitationEnv:
     def __init__(self, motion: ReferenceMotion, config: EnvConfig, num_envs: int, starts: BufferedStarts, seed: int = 0, gamma: float = 0.95):
-        humanoid = scene_humanoid(config.physics, config.scene, motion)
+        humanoid = scene_humanoid(config.physics, config.scene, motion, config.scene_check_start_pose)
         track = ReferenceTrack(motion, humanoid, 1.0 / config.control_hz, config.horizon_s)
         self.envs = [ImitationEnv(motion, config, humanoid, track) for _ in range(num_envs)]
         self.num_envs = num_envs
