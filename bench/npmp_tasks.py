@@ -74,6 +74,11 @@ def measure(task: str, action: str, args) -> dict:
     return entry
 
 
+def smoothed(values: list[float], window: int = 10) -> list[float]:
+    """Running mean over the last `window` iterations (a 4096-sample batch holds ~13 ten-second episodes)."""
+    return [sum(values[max(0, k - window + 1):k + 1]) / len(values[max(0, k - window + 1):k + 1]) for k in range(len(values))]
+
+
 def plot(results: dict, out: Path) -> None:
     import matplotlib
 
@@ -83,15 +88,19 @@ def plot(results: dict, out: Path) -> None:
     from services.training.run_dir import read_metrics
 
     tasks = sorted({key.split("/")[0] for key in results})
-    fig, axes = plt.subplots(1, len(tasks), figsize=(6 * len(tasks), 4), squeeze=False)
-    for ax, task in zip(axes[0], tasks):
+    fig, axes = plt.subplots(2, len(tasks), figsize=(6 * len(tasks), 7), squeeze=False)
+    for column, task in enumerate(tasks):
         for key, entry in sorted(results.items()):
             if key.split("/")[0] != task:
                 continue
             rows = [r for r in read_metrics(Path(entry["run"])) if r.get("success_rate") is not None]
-            ax.plot([r["samples"] for r in rows], [r["success_rate"] for r in rows], label=key.split("/")[1])
-        ax.set(title=f"{task}: training success rate", xlabel="samples", ylabel="episodes reaching the first target")
-        ax.legend()
+            samples = [r["samples"] for r in rows]
+            for row, metric in enumerate(("success_rate", "fall_rate")):
+                axes[row][column].plot(samples, smoothed([r[metric] for r in rows]), label=key.split("/")[1])
+        axes[0][column].set(title=f"{task}: training episodes reaching a target", xlabel="samples", ylabel="success rate (10-iteration mean)")
+        axes[1][column].set(title=f"{task}: training episodes ending in a fall", xlabel="samples", ylabel="fall rate (10-iteration mean)")
+        for ax in axes[:, column]:
+            ax.legend()
     fig.tight_layout()
     fig.savefig(out, dpi=100)
     plt.close(fig)
