@@ -92,6 +92,16 @@ class VectorTaskEnv:
         self.episodes = TaskEpisodeLog()
 
     # ---------------------------------------------------------------- episodes
+    @property
+    def max_episode_steps(self) -> int:
+        return self._max_steps
+
+    @property
+    def rows(self) -> np.ndarray:
+        """Each env's control steps since its episode began: a task's "frame" (what the rollout
+        worker ships for adaptive tuple sampling; tasks have no reference row)."""
+        return self._len
+
     def set_horizon(self, seconds: float | None) -> None:
         """Cap episodes that start from now on (the driver's curriculum seam); None: the config's horizon."""
         self._cap = None if seconds is None else max(1, int(round(seconds * self.config.control_hz)))

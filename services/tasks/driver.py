@@ -41,6 +41,7 @@ class TaskTrainer(Trainer):
     def run(self) -> dict:
         config = self.config
         probe = VectorTaskEnv(config.env, 1)  # the dims; a bad --module fails here, before anything is written
+        self.track_rows = probe.max_episode_steps  # a task's frames are steps since the episode began
         checkpoint = self._prepare_run_dir()
         _set_torch_threads(config)
         learner = PPOLearner(probe.obs_dim, probe.action_dim, config.ppo, device=config.device)
