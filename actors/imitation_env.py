@@ -285,12 +285,14 @@ class ImitationEnv(gym.Env):
         return self.scene_reward.batch(rows, features.pos[:, self.scene_limbs], features.root_xmat[:, ::3],
                                        features.com, features.com_vel, e)
 
-    def max_episode_return(self) -> float:
-        """The most this episode can earn: the imitation reward's maximum every step, plus
-        the scene reward's where the reference touches or flies to a box."""
-        total = self.max_reward * self._max_steps
+    def max_episode_return(self, steps: int | None = None) -> float:
+        """The most this episode can earn over its first `steps` steps (default: all): the
+        imitation reward's maximum every step, plus the scene reward's where the reference
+        touches or flies to a box."""
+        steps = self._max_steps if steps is None else steps
+        total = self.max_reward * steps
         if self.scene_reward is not None:
-            total += float(self.scene_reward.max_rewards[self._start + 1:self._start + 1 + self._max_steps].sum())
+            total += float(self.scene_reward.max_rewards[self._start + 1:self._start + 1 + steps].sum())
         return total
 
     # ---------------------------------------------------------------------- queries

@@ -36,7 +36,7 @@ import numpy as np
 
 from actors.kinematics import forward_kinematics
 from actors.motion_io import root_is_free
-from actors.scene import Scene, SceneFrame
+from actors.scene import Scene, SceneError, SceneFrame
 from actors.skeleton import LINK_NAMES, LINKS
 
 SCENE_LIMBS = ("right_ankle", "left_ankle", "right_wrist", "left_wrist")  # 002's rf, lf, rh, lh
@@ -99,7 +99,7 @@ class SceneContacts:
         links, _ = forward_kinematics(poses.root_pos, poses.root_rot, poses.joint_rot)
         points = links[:, SCENE_LIMB_LINKS] - np.array([0.0, 0.0, 1.0]) * CONTACT_LIFT[:, None]  # (R, 4, 3)
         if "box_contacts" in motion.extras:
-            target = np.asarray(motion.extras["box_contacts"], dtype=np.int64)[frames]
+            target = _box_contacts(motion, scene)[frames]
             touching = target >= 0
             touching[:, :2] |= _feet_down(motion, frames, points)
         else:
@@ -109,6 +109,18 @@ class SceneContacts:
     @property
     def active(self) -> np.ndarray:
         return self.target >= 0
+
+
+def _box_contacts(motion, scene: Scene) -> np.ndarray:
+    """The motion's `box_contacts`, checked against its frames and the scene's boxes."""
+    table = np.asarray(motion.extras["box_contacts"])
+    if table.shape != (motion.num_frames, len(SCENE_LIMBS)) or not np.issubdtype(table.dtype, np.integer):
+        raise SceneError(f"{motion.name}: box_contacts must be ({motion.num_frames}, 4) integers (box index or -1 per "
+                         f"{', '.join(SCENE_LIMBS)}), got {table.dtype} {table.shape}")
+    if table.size and not -1 <= table.min() <= table.max() < scene.num_boxes:
+        raise SceneError(f"{motion.name}: box_contacts names box {int(table.max())} but the scene has {scene.num_boxes} "
+                         f"box(es) (indices 0..{scene.num_boxes - 1}, -1 for none)")
+    return table.astype(np.int64)
 
 
 def _frame_of_rows(motion, times: np.ndarray) -> np.ndarray:

@@ -87,3 +87,23 @@ def test_without_a_scene_file_the_env_is_the_flat_floor(clip):
     assert env.model.ngeom == Humanoid().model.ngeom and env.model.npair == Humanoid().model.npair
     env.reset(seed=0)
     assert env.max_episode_return() == env.max_reward * env.max_episode_steps
+
+
+def test_the_vector_env_earns_what_a_single_env_earns_on_the_same_scene(clip):
+    config = EnvConfig(scene=str(SCENES / "box_jump.yaml"))
+    vec = VectorImitationEnv(clip, config, 1, BufferedStarts(ReferenceStarts("fsi", np.random.default_rng(0)), 4), seed=7)
+    single = ImitationEnv(clip, config)
+    vec_obs = vec.reset()
+    obs, _ = single.reset(seed=7, options={"phase": 0.0, "init": "rsi"})
+    np.testing.assert_array_equal(vec.envs[0].scene_vector, single.scene_vector)
+    np.testing.assert_allclose(vec_obs[0], obs, atol=1e-6)
+    rng = np.random.default_rng(1)
+    for _ in range(40):
+        action = rng.normal(0.0, 0.05, (1, vec.action_dim)).astype(np.float32)
+        vec_obs, vec_reward, terminated, truncated, _ = vec.step(action)
+        obs, reward, *_ = single.step(action[0])
+        if terminated[0] or truncated[0]:
+            break
+        assert vec_reward[0] == pytest.approx(reward, abs=1e-5)
+        np.testing.assert_allclose(vec_obs[0], obs, atol=1e-4)
+    assert single.row > 20  # into the flight rows, where r_com is scored

@@ -83,3 +83,22 @@ def test_missing_and_unparsable_files_are_one_line(tmp_path):
         load_scene(tmp_path / "absent.yaml")
     with pytest.raises(SceneError, match="not valid YAML"):
         load_scene(_write(tmp_path, "boxes: [\n"))
+
+
+def test_the_scene_flag_is_absolute_so_a_resume_from_elsewhere_matches(tmp_path, monkeypatch):
+    import argparse
+
+    from actors.imitation_env import EnvConfig
+    from services.training import flags
+    from services.training.config import TrainConfig
+
+    path = _write(tmp_path, GOOD)
+    monkeypatch.chdir(tmp_path)
+    parser = argparse.ArgumentParser()
+    flags.add_config_flags(parser)
+    given, used = flags.given_settings(parser.parse_args(["--scene", path.name]))
+    assert given == {"env.scene": str(path)}
+    base = TrainConfig(env=EnvConfig(scene=path.name)).to_dict()  # saved configs hold the absolute path too
+    assert flags.resolve(given, used, base, resuming=True).env.scene == str(path)
+    with pytest.raises(Exception, match="--scene: cannot change on --resume"):
+        flags.resolve({"env.scene": str(tmp_path / "other.yaml")}, used, base, resuming=True)

@@ -106,3 +106,14 @@ def test_the_box_clip_reference_earns_the_scene_reward_on_the_true_box():
     assert min(terms_at(r, truth)[0] for r in on_box[2:]) > 0.97
     assert np.mean([terms_at(r, truth)[2] for r in flying[len(flying) // 2:]]) > 0.9
     assert terms_at(on_box[5], truth + [0.0, 0.3])[0] < 0.3
+
+
+def test_box_contacts_naming_a_missing_box_is_one_line():
+    from actors.imitation_env import EnvConfig, ImitationEnv
+    from actors.scene import SceneError
+
+    scenes = Path(__file__).resolve().parents[1] / "bench" / "scenes"
+    motion = load_motion(str(scenes / "box_jump.npz"))
+    motion.extras = {**motion.extras, "box_contacts": np.where(motion.extras["box_contacts"] >= 0, 1, -1)}
+    with pytest.raises(SceneError, match=r"box_contacts names box 1 but the scene has 1 box"):
+        ImitationEnv(motion, EnvConfig(scene=str(scenes / "box_jump_truth.yaml")))

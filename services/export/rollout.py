@@ -41,7 +41,7 @@ def episode_steps(policy, env: ImitationEnv, seed: int, init: str, seconds: floa
     obs_row = np.empty((1, env.observation_space.shape[0]), np.float32)
     obs_row[0] = obs
     limit = episode_limit(env, seconds)
-    best = env.max_reward * limit
+    best = env.max_episode_return(limit)  # = max_reward x limit without a scene
     progress = StepProgress(0, limit, 0.0, 0.0, 0.0, False, False)
     yield progress
     for step in range(1, limit + 1):

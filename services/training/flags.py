@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 import types
 import typing
 from collections.abc import Callable
@@ -115,7 +116,7 @@ ALIASES = (
     Alias("--reference-obs", ("env.reference_obs_steps",), _int_list(True, True), metavar="K,K",
           help="control steps ahead at which the policy observes the reference root (default 1,15); 'none' for SFV's observation"),
     Alias("--state-space", ("env.state_space",)),
-    Alias("--scene", ("env.scene",), metavar="FILE.yaml"),
+    Alias("--scene", ("env.scene",), lambda text: None if text.strip().lower() == "none" else os.path.abspath(text), metavar="FILE.yaml"),
     Alias("--asi-std-scale", ("asi_initial_std_scale",), _positive(float)),
     Alias("--curriculum-samples", ("curriculum_samples",), _positive(int)),
     Alias("--no-root-sync", ("env.sync_root_per_cycle",), const=False,
