@@ -138,9 +138,10 @@ class Trainer:
 
     def run(self) -> dict:
         config = self.config
-        checkpoint = self._prepare_run_dir()
+        # The motion and the env (its scene file) first: a bad file is one line with nothing written.
         motion = load_motion(config.motion)
         env, ref_states, ref_phases = self._reference_table(motion)
+        checkpoint = self._prepare_run_dir()
         self.track_rows = env.track.rows  # the frame range of adaptive tuple sampling's coverage
         _set_torch_threads(config)
         learner = PPOLearner(env.observation_space.shape[0], env.action_space.shape[0], config.ppo, device=config.device)
