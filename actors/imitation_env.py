@@ -44,7 +44,7 @@ from actors.reward import NUM_TERMS, ImitationReward, RewardConfig
 from actors.reward import TERM_NAMES as REWARD_TERM_NAMES
 from actors.reward_movingcam import TERM_NAMES as MOVINGCAM_TERM_NAMES
 from actors.root_sync import RootSync
-from actors.scene_reward import SCENE_LIMB_LINKS, SceneReward
+from actors.scene_reward import SCENE_LIMB_LINKS, SceneReward, SceneRewardConfig
 from actors.state import StateLayout
 
 INIT_STRATEGIES = ("fsi", "rsi", "state")
@@ -86,8 +86,10 @@ class EnvConfig:
 
     @property
     def max_reward(self) -> float:
-        """The most one control step can earn (the mode's reward weights)."""
-        return self.movingcam.reward.max_reward if self.mode == "movingcam" else self.reward.max_reward
+        """The most one control step can earn (the mode's reward weights, plus 002's scene reward with
+        a scene file): the bound on value targets (`ppo.reward_max`)."""
+        track = self.movingcam.reward.max_reward if self.mode == "movingcam" else self.reward.max_reward
+        return track + (SceneRewardConfig().max_reward if self.scene is not None else 0.0)
 
     @property
     def root_free(self) -> bool:

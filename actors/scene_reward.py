@@ -67,6 +67,11 @@ class SceneRewardConfig:
     alpha_align: float = 1.0
     alpha_com: float = 5.0
 
+    @property
+    def max_reward(self) -> float:
+        """The most r_scene pays in one step (a step that touches or flies to a box)."""
+        return self.w_dist + self.w_align + self.w_com
+
 
 def contact_zones(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     """Per box and limb, the zone's centre offset from the top face's centre (along, lateral)

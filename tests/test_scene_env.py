@@ -107,3 +107,16 @@ def test_the_vector_env_earns_what_a_single_env_earns_on_the_same_scene(clip):
         assert vec_reward[0] == pytest.approx(reward, abs=1e-5)
         np.testing.assert_allclose(vec_obs[0], obs, atol=1e-4)
     assert single.row > 20  # into the flight rows, where r_com is scored
+
+
+def test_value_targets_are_bounded_by_the_scene_reward_too(clip, scene_env):
+    """A return with boxes can exceed the imitation reward's bound: the bound PPO clips value
+    targets at (`EnvConfig.max_reward`) includes the scene reward's most per step."""
+    from learner.config import PPOConfig
+    from learner.ppo import PPOLearner
+
+    flat = EnvConfig()
+    boxes = EnvConfig(scene=str(SCENES / "box_jump.yaml"))
+    per_step = float(scene_env.scene_reward.max_rewards.max())
+    assert per_step > 0
+    assert boxes.max_reward >= flat.max_reward + per_step - 1e-12
