@@ -98,7 +98,6 @@ class MovingcamTracking:
                 self._geom_body[geoms] = True
         self._geom_obstacle = np.zeros(model.ngeom, dtype=bool)
         self._has_obstacles = False
-        self.scene_reward = None
         # An arena with obstacles names their geoms (`obstacle_geom_names`); a flat floor has none.
         names = tuple(getattr(humanoid.arena, "obstacle_geom_names", ()))
         self.set_obstacles(tuple(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n) for n in names))
@@ -122,7 +121,7 @@ class MovingcamTracking:
         self._ref_cols = slice(OBS_DIM - 1, OBS_DIM - 1 + self._ref_table.shape[1])
 
     def set_obstacles(self, geom_ids: tuple[int, ...]) -> None:
-        """The scene's obstacle geoms (for the collision rule); () for a flat floor. Set from the
+        """The scene's obstacle geoms (for the collision rule); () for a flat floor. Set by the env from its
         arena's `obstacle_geom_names` at construction."""
         self._geom_obstacle[:] = False
         self._geom_obstacle[list(geom_ids)] = True
@@ -150,16 +149,10 @@ class MovingcamTracking:
                     break
             self.obstacle_hit[i] = hit
 
-    def set_scene_reward(self, scene_reward) -> None:
-        """The seam for 002's r_scene (eq. 10-12): `scene_reward(rows, features, targets)` -> (B,)
-        rewards, added to r_track (eq. 4), with a `max_reward` attribute (added to the env's)."""
-        self.scene_reward = scene_reward
-        self.max_reward = self.config.reward.max_reward + (0.0 if scene_reward is None else float(scene_reward.max_reward))
-
     def rewards(self, rows: np.ndarray, features, sim: RewardFeatures, ref: RewardFeatures, terms: np.ndarray,
                 check_termination: bool) -> np.ndarray:
         """Rewards (B,) of the envs captured in `features` (a FeatureExtractor) and here, at table
-        `rows`: r_track plus the scene's r_scene where there is one; `terms` (B, 5) receives
+        `rows`: r_track (the env adds a scene's r_scene); `terms` (B, 5) receives
         r_track's terms. Sets `terminated` when `check_termination`."""
         targets, pos, com = self.targets, features.pos, features.com
         np.take(targets.hint, rows, out=self._hint)
@@ -170,8 +163,6 @@ class MovingcamTracking:
         np.arctan2(self._horizontal, up[:, 2], out=self._tilt)
         rewards = self.reward.batch(sim, ref, self._tilt, self._hint, self._hint_weight, self.contacts, self._flags,
                                     self.torque, terms)
-        if self.scene_reward is not None:
-            rewards += self.scene_reward(rows, features, targets)
         if check_termination:
             self.termination.check(com[:, 2], ref.com[:, 2], self.reward.pose_error, self.reward.orientation_gap, self.obstacle_hit)
         else:
