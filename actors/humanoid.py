@@ -37,6 +37,14 @@ class PhysicsConfig:
     joint_damping: float = field(default=0.0, metadata={"help": "passive joint damping on top of the PD kd"})
 
 
+def control_substeps(physics: PhysicsConfig, control_hz: float) -> int:
+    """Physics steps per control step: a whole number, or the rate pair is refused (ValueError)."""
+    n = physics.physics_hz / control_hz
+    if abs(n - round(n)) > 1e-9 or n < 1:
+        raise ValueError(f"physics_hz ({physics.physics_hz}) must be a whole multiple of control_hz ({control_hz})")
+    return int(round(n))
+
+
 def _fmt(v) -> str:
     return " ".join(f"{x:.6g}" for x in np.ravel(v))
 

@@ -22,10 +22,9 @@ fixed by `set_scene(e)` or given in `reset(options={"scene": e})`.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import copy
 import os
+from dataclasses import dataclass, field
 
 import gymnasium as gym
 import mujoco
@@ -35,7 +34,7 @@ from actors.actions import ActionMapper
 from actors.box_arena import BoxArena, scene_humanoid
 from actors.falls import FallDetector
 from actors.features import FeatureExtractor, RewardFeatures, observation_dim, update_kinematics
-from actors.humanoid import Humanoid, PhysicsConfig
+from actors.humanoid import Humanoid, PhysicsConfig, control_substeps
 from actors.motion import ReferenceMotion
 from actors.movingcam import ENV_MODES, MovingcamConfig, MovingcamTracking
 from actors.reference_obs import ReferenceObservation
@@ -98,10 +97,7 @@ class EnvConfig:
 
     @property
     def substeps(self) -> int:
-        n = self.physics.physics_hz / self.control_hz
-        if abs(n - round(n)) > 1e-9 or n < 1:
-            raise ValueError(f"physics_hz ({self.physics.physics_hz}) must be a whole multiple of control_hz ({self.control_hz})")
-        return int(round(n))
+        return control_substeps(self.physics, self.control_hz)
 
 
 class ImitationEnv(gym.Env):

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from actors.humanoid import PhysicsConfig
+from actors.humanoid import PhysicsConfig, control_substeps
 
 TASKS = ("go_to", "push_box")
 ACTION_SPACES = ("latent", "joint")
@@ -39,10 +39,7 @@ class TaskEnvConfig:
 
     @property
     def substeps(self) -> int:
-        n = self.physics.physics_hz / self.control_hz
-        if abs(n - round(n)) > 1e-9 or n < 1:
-            raise ValueError(f"physics_hz ({self.physics.physics_hz}) must be a whole multiple of control_hz ({self.control_hz})")
-        return int(round(n))
+        return control_substeps(self.physics, self.control_hz)
 
     @property
     def horizon_steps(self) -> int:

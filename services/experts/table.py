@@ -27,8 +27,9 @@ from pathlib import Path
 import numpy as np
 
 from actors.mirror import MIRROR_SUFFIX
-from learner.atomic_io import atomic_output, atomic_write_json, atomic_write_text
+from learner.atomic_io import atomic_write_json, atomic_write_text
 from learner.errors import SfvError
+from services.training.curves import save_figure
 
 TABLE_JSON, TABLE_MD, TABLE_PNG = "experts.json", "experts.md", "experts_tracking.png"
 DEFAULT_EPISODES = 16
@@ -91,8 +92,8 @@ def evaluate_expert(experts_dir: str, clip: str, episodes: int = DEFAULT_EPISODE
     from threadpoolctl import threadpool_limits
 
     from actors.motion_io import load_motion
-    from services.experts.library import load_expert
     from services.experts.job import samples_done
+    from services.experts.library import load_expert
     from services.training.evaluation import evaluate_policy, make_eval_env
 
     expert = load_expert(experts_dir, clip, max_batch=1)
@@ -248,10 +249,4 @@ def plot_tracking(table: dict, out: Path) -> Path:
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7, ncol=2)
     fig.suptitle(f"Expert tracking from {table['curve_starts']} starts through each clip (dotted: mirrored experts)")
-    fig.tight_layout()
-    try:
-        with atomic_output(out, suffix=".png") as tmp:
-            fig.savefig(tmp)
-    finally:
-        plt.close(fig)
-    return out
+    return save_figure(fig, out)

@@ -134,7 +134,7 @@ def plot_relative(record: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from learner.atomic_io import atomic_output
+    from services.training.curves import save_figure
 
     clips = list(record["clips"])
     x = np.arange(len(clips))
@@ -146,7 +146,4 @@ def plot_relative(record: dict, path: Path) -> None:
     ax.set_title("one-shot imitation relative to each clip's expert (004 Fig. A.1)", fontsize=9)
     ax.set_ylim(0, 1.3)
     ax.legend(fontsize=8, ncol=2, loc="upper center")
-    fig.tight_layout()
-    with atomic_output(path, suffix=".png") as tmp:
-        fig.savefig(tmp)
-    plt.close(fig)
+    save_figure(fig, path)
