@@ -15,12 +15,12 @@ from pathlib import Path
 
 import numpy as np
 import onnx
-from onnx import TensorProto, helper, numpy_helper
+from onnx import TensorProto, helper
 
 from learner.atomic_io import atomic_write_bytes
 from learner.errors import SfvError
 from learner.motor_decoder import decoder_layers
-from learner.onnx_export import IR_VERSION, OPSET
+from learner.onnx_export import IR_VERSION, OPSET, normalised_mlp
 
 INPUTS = ("proprio", "z")
 OUTPUT = "targets"
@@ -30,23 +30,8 @@ def build_decoder_onnx(weights: Mapping[str, np.ndarray]) -> onnx.ModelProto:
     layers = decoder_layers(weights)
     clip = float(np.asarray(weights["input_clip"]))
 
-    def constant(name: str, value) -> onnx.TensorProto:
-        return numpy_helper.from_array(np.asarray(value, dtype=np.float32), name)
-
-    initializers = [constant("proprio_mean", weights["proprio_mean"]), constant("proprio_std", weights["proprio_std"]),
-                    constant("clip_min", np.array(-clip)), constant("clip_max", np.array(clip))]
-    nodes = [helper.make_node("Sub", ["proprio", "proprio_mean"], ["centred"]),
-             helper.make_node("Div", ["centred", "proprio_std"], ["scaled"]),
-             helper.make_node("Clip", ["scaled", "clip_min", "clip_max"], ["clipped"]),
-             helper.make_node("Concat", ["clipped", "z"], ["hidden0"], axis=1)]
-    last = len(layers) - 1
-    for index, (weight, bias) in enumerate(layers):
-        initializers += [constant(f"layer{index}.weight", weight), constant(f"layer{index}.bias", bias)]
-        nodes.append(helper.make_node("MatMul", [f"hidden{index}", f"layer{index}.weight"], [f"matmul{index}"]))
-        out = OUTPUT if index == last else f"pre{index}"
-        nodes.append(helper.make_node("Add", [f"matmul{index}", f"layer{index}.bias"], [out]))
-        if index != last:
-            nodes.append(helper.make_node("Elu", [out], [f"hidden{index + 1}"], alpha=1.0))
+    initializers, nodes = normalised_mlp("proprio", weights["proprio_mean"], weights["proprio_std"], clip, layers, OUTPUT,
+                                         "Elu", extra_inputs=("z",), alpha=1.0)
     proprio_dim, latent_dim = int(np.shape(weights["proprio_mean"])[0]), int(weights["latent_dim"])
     graph = helper.make_graph(
         nodes, "sfv_motor_decoder",

@@ -30,35 +30,43 @@ INPUT_NAME = "obs"
 OUTPUT_NAME = "action_mean"
 
 
+def onnx_constant(name: str, value) -> onnx.TensorProto:
+    return numpy_helper.from_array(np.asarray(value, dtype=np.float32), name)
+
+
+def normalised_mlp(input_name: str, mean, std, clip: float, layers, output: str, activation: str,
+                   extra_inputs: tuple[str, ...] = (), **activation_attrs) -> tuple[list, list]:
+    """Initializers and nodes of clip((x - mean) / std) [concatenated with `extra_inputs`]
+    through the MLP `layers` ((weight (in, out), bias) pairs, `activation` between them): the
+    graph both the policy mean and the motor decoder export."""
+    initializers = [onnx_constant("obs_mean", mean), onnx_constant("obs_std", std),
+                    onnx_constant("obs_clip_min", np.array(-clip)), onnx_constant("obs_clip_max", np.array(clip))]
+    clipped = "obs_clipped" if extra_inputs else "hidden_in0"
+    nodes = [helper.make_node("Sub", [input_name, "obs_mean"], ["obs_centred"]),
+             helper.make_node("Div", ["obs_centred", "obs_std"], ["obs_scaled"]),
+             helper.make_node("Clip", ["obs_scaled", "obs_clip_min", "obs_clip_max"], [clipped])]
+    if extra_inputs:
+        nodes.append(helper.make_node("Concat", [clipped, *extra_inputs], ["hidden_in0"], axis=1))
+    last = len(layers) - 1
+    for index, (weight, bias) in enumerate(layers):
+        initializers += [onnx_constant(f"layer{index}.weight", weight), onnx_constant(f"layer{index}.bias", bias)]
+        nodes.append(helper.make_node("MatMul", [f"hidden_in{index}", f"layer{index}.weight"], [f"matmul{index}"]))
+        pre_activation = output if index == last else f"pre_activation{index}"
+        nodes.append(helper.make_node("Add", [f"matmul{index}", f"layer{index}.bias"], [pre_activation]))
+        if index != last:
+            nodes.append(helper.make_node(activation, [pre_activation], [f"hidden_in{index + 1}"], **activation_attrs))
+    return initializers, nodes
+
+
 def build_policy_onnx(policy_weights: Mapping[str, np.ndarray]) -> onnx.ModelProto:
     """An ONNX model of the policy mean with the observation normalisation baked in."""
     layers = policy_layers(policy_weights)
     obs_dim = int(np.shape(policy_weights["obs_mean"])[0])
     act_dim = layers[-1][0].shape[1]
 
-    def constant(name: str, value: np.ndarray) -> onnx.TensorProto:
-        return numpy_helper.from_array(np.asarray(value, dtype=np.float32), name)
-
     clip = float(np.asarray(policy_weights["obs_clip"]))
-    initializers = [
-        constant("obs_mean", policy_weights["obs_mean"]),
-        constant("obs_std", policy_weights["obs_std"]),
-        constant("obs_clip_min", np.array(-clip)),
-        constant("obs_clip_max", np.array(clip)),
-    ]
-    nodes = [
-        helper.make_node("Sub", [INPUT_NAME, "obs_mean"], ["obs_centred"]),
-        helper.make_node("Div", ["obs_centred", "obs_std"], ["obs_scaled"]),
-        helper.make_node("Clip", ["obs_scaled", "obs_clip_min", "obs_clip_max"], ["hidden_in0"]),
-    ]
-    last = len(layers) - 1
-    for index, (weight, bias) in enumerate(layers):
-        initializers += [constant(f"layer{index}.weight", weight), constant(f"layer{index}.bias", bias)]
-        nodes.append(helper.make_node("MatMul", [f"hidden_in{index}", f"layer{index}.weight"], [f"matmul{index}"]))
-        pre_activation = OUTPUT_NAME if index == last else f"pre_activation{index}"
-        nodes.append(helper.make_node("Add", [f"matmul{index}", f"layer{index}.bias"], [pre_activation]))
-        if index != last:
-            nodes.append(helper.make_node("Relu", [pre_activation], [f"hidden_in{index + 1}"]))
+    initializers, nodes = normalised_mlp(INPUT_NAME, policy_weights["obs_mean"], policy_weights["obs_std"], clip, layers,
+                                         OUTPUT_NAME, "Relu")
 
     graph = helper.make_graph(
         nodes,
