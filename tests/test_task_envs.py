@@ -127,3 +127,39 @@ def test_pose_prior_prefers_expert_poses_to_random_ones():
     prior = PosePrior.fit(("walk", "run"))
     rng = np.random.default_rng(0)
     assert prior.log_density(clip_poses("walk")).mean() > prior.log_density(rng.uniform(-1, 1, (50, 28))).mean() + 50
+
+
+def _box_contacts_after(env, data, centre):
+    """Move env's push box to `centre` (x, y, z of its middle), recompute contacts, and return
+    (fall?, names of walker bodies touching the box)."""
+    import mujoco
+
+    q = env.task.qpos_adr
+    data.qpos[q:q + 3] = centre
+    data.qpos[q + 3:q + 7] = (1.0, 0.0, 0.0, 0.0)
+    mujoco.mj_forward(env.model, data)
+    box = mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_GEOM, "box_geom")
+    touching = set()
+    for g1, g2 in data.contact.geom:
+        if box in (g1, g2):
+            other = g2 if g1 == box else g1
+            touching.add(mujoco.mj_id2name(env.model, mujoco.mjtObj.mjOBJ_BODY, env.model.geom_bodyid[other]))
+    return env.fall(data), touching
+
+
+def test_torso_on_the_push_box_is_a_fall_but_a_hand_on_it_is_not():
+    import mujoco
+
+    env = make_env("push_box", num_envs=1)
+    env.reset()
+    data = env.datas[0]
+    mujoco.mj_forward(env.model, data)
+    half = env.model.geom_size[mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_GEOM, "box_geom")]
+    ids = {name: mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_BODY, name) for name in ("chest", "right_wrist", "root")}
+    chest = data.xpos[ids["chest"]].copy()
+    fell, touching = _box_contacts_after(env, data, (chest[0], chest[1], chest[2] - half[2] + 0.05))
+    assert "chest" in touching and fell  # leaning the trunk on the box
+    wrist, pelvis = data.xpos[ids["right_wrist"]].copy(), data.xpos[ids["root"]].copy()
+    out = (wrist[:2] - pelvis[:2]) / np.linalg.norm(wrist[:2] - pelvis[:2])
+    fell, touching = _box_contacts_after(env, data, (*(wrist[:2] + out * (half[0] + 0.02)), wrist[2]))
+    assert "right_wrist" in touching and not fell  # a hand pushing

@@ -71,8 +71,9 @@ def fit_windows_scene(runs, scene, starts: int = 4, seed: int = 0) -> FitResult:
 def run_scene_fit(motion_path: str, scene_path: str | None, out: Path, base: TrainConfig,
                   max_objects: int = MAX_OBJECTS, rollouts: int = 8, progress: bool = True,
                   fit_starts: int = 4) -> SceneFitOutcome:
-    """Train the windows (resumable), fit the scene, roll out in it, write the outputs."""
-    from services.scene_fit.final_rollout import final_rollout
+    """Train the windows (resumable), fit the scene, roll out in it (Ray tasks when Ray is up:
+    `fit_tasks.py`), write the outputs."""
+    from services.scene_fit.fit_tasks import run_fit_stages
     from services.scene_fit.outputs import write_outputs
     from services.scene_fit.sequence import train_windows
 
@@ -81,16 +82,14 @@ def run_scene_fit(motion_path: str, scene_path: str | None, out: Path, base: Tra
     runs = train_windows(out, windows, clip, scene, base, rollouts=rollouts, progress=progress)
     summary: dict = {"motion": str(motion_path), "scene_file": None if scene_path is None else str(scene_path),
                      "windows": [w.to_dict() for w in windows], "samples_per_window": base.samples}
-    e = None
     reference_contacts = clip.extras.get("contacts")
-    if scene is not None:
-        fit = fit_windows_scene(runs, scene, starts=fit_starts, seed=base.seed)
-        e = fit.scene
-        summary["fit"] = fit.to_dict()
+    stages = run_fit_stages(runs, scene, seed=base.seed, starts=fit_starts)
+    e = None if stages.fit is None else stages.fit.scene
+    if stages.fit is not None:
+        summary["fit"] = stages.fit.to_dict()
         summary["initial_scene"] = scene_contract.scene_vector(scene).tolist()
-        initial = final_rollout(runs, scene_contract.scene_vector(scene), seed=base.seed)
-        summary["initial_scene_scores"] = initial.scores(reference_contacts)  # Table 2's "fixed scene"
-    simulated = final_rollout(runs, e, seed=base.seed)
+        summary["initial_scene_scores"] = stages.initial.scores(reference_contacts)  # Table 2's "fixed scene"
+    simulated = stages.simulated
     summary["scores"] = simulated.scores(reference_contacts)
     from actors.humanoid import Humanoid
     from actors.state import StateLayout
