@@ -1,9 +1,10 @@
 """The scene reward of the dynamic-camera paper (002 section 5.1, eq. 10-12), for B envs at once.
 
-    r_scene = 0.5 r_dist + 0.2 r_align + 0.3 r_com
-    r_dist  = c exp(-15 sum_l |mindist(Z_l, p_l)|^2)        l in {rf, lf, rh, lh} touching a box
-    r_align = c exp(-1 (1 - u_pelvis . u_obj)^2)
-    r_com   = exp(-5 |d_ee - d_obj|^2)                       while in the air, landing on a box
+    r_scene  = 0.5 r_dist + 0.2 r_align + 0.3 r_com + 0.3 r_height
+    r_dist   = c exp(-15 sum_l |mindist(Z_l, p_l)|^2)        l in {rf, lf, rh, lh} touching a box
+    r_align  = c exp(-1 (1 - u_pelvis . u_obj)^2)
+    r_com    = exp(-5 |d_ee - d_obj|^2)                       while in the air, landing on a box
+    r_height = c exp(-50 (z_com - z*_com)^2)                  ours, not 002's: see below
 
 c is 1 on the reference frames where a hand or foot touches a box. Contact zones Z_l lie on
 the box's top face: the feet's is the centred quarter of its area (002 Fig. 7, half its
@@ -27,6 +28,18 @@ pose at landing against the ballistic prediction of the simulated centre of mass
 estimated landing time minus the zone: the landing point nearest the zone, so a lengths-only
 match anywhere on a sphere does not pay. r_com uses the reference's flight (frames without
 contact), not the simulated one's, so the table is precomputed per reference row.
+
+Deviation, r_height (not in 002): while a limb rests on a box, the centre of mass's height
+against the reference's. Without it eq. 14 has no maximum at the true box when the motion
+is root-free: a box flush with the floor pays r_dist in full (the foot on the floor is on
+its top face), r_com likewise (the ballistic landing point lies on it), and the joint terms
+do not see the root, so the easiest scene wins. Measured on the synthetic box jump (truth
+along 1.1 m, height 0.2 m; 1.8 M samples): the fit went to the domain's corner (0.9, 0.0),
+and the value landscape fell monotonically with height. The root-free reference keeps its
+height (the ground and the up direction fix it; `movingcam_termination.py` uses it too), and
+that height is what says how high the person stood: on a box too low the character stands
+lower than the reference by the difference for as long as it stays on it. `w_height` 0
+restores 002's three terms.
 """
 from __future__ import annotations
 
@@ -41,7 +54,7 @@ from actors.skeleton import LINK_NAMES, LINKS
 
 SCENE_LIMBS = ("right_ankle", "left_ankle", "right_wrist", "left_wrist")  # 002's rf, lf, rh, lh
 SCENE_LIMB_LINKS = np.array([LINK_NAMES.index(n) for n in SCENE_LIMBS])
-NUM_TERMS = 3  # dist, align, com
+NUM_TERMS = 4  # dist, align, com, height
 TOP_BAND = 0.04  # m: a reference sole this close to a top face rests on it
 FOOTPRINT_MARGIN = 0.05  # m around a box's footprint
 GRAVITY = np.array([0.0, 0.0, -9.81])
@@ -66,11 +79,17 @@ class SceneRewardConfig:
     alpha_dist: float = 15.0
     alpha_align: float = 1.0
     alpha_com: float = 5.0
+    w_height: float = 0.3
+    alpha_height: float = 50.0  # per m^2: .61 at 10 cm, .14 at 20 cm
 
     @property
     def max_reward(self) -> float:
         """The most r_scene pays in one step (a step that touches or flies to a box)."""
-        return self.w_dist + self.w_align + self.w_com
+        return self.w_dist + self.w_align + self.w_com + self.w_height
+
+    @property
+    def weights(self) -> np.ndarray:
+        return np.array([self.w_dist, self.w_align, self.w_com, self.w_height])
 
 
 def contact_zones(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
@@ -95,6 +114,7 @@ class SceneContacts:
     air_limb: np.ndarray  # (R,) int
     air_time: np.ndarray  # (R,) s
     air_offset: np.ndarray  # (R, 3): reference centre of mass minus the landing contact point, at landing
+    com_height: np.ndarray  # (R,) the reference's centre-of-mass height
 
     @classmethod
     def of_track(cls, track, scene: Scene, frame: SceneFrame) -> "SceneContacts":
@@ -109,7 +129,7 @@ class SceneContacts:
             touching[:, :2] |= _feet_down(motion, frames, points)
         else:
             target, touching = _feet_on_boxes(motion, frames, points, scene, frame)
-        return cls(target, *_flights(track.times, touching, target, track.com, points))
+        return cls(target, *_flights(track.times, touching, target, track.com, points), np.asarray(track.com)[:, 2].copy())
 
     @property
     def active(self) -> np.ndarray:
@@ -199,8 +219,9 @@ class SceneReward:
         self.zone_centre, self.zone_half = contact_zones(scene)
         forward = frame.forward
         self.u_obj = np.array([forward[0], forward[1], 0.0])
+        self._weights = config.weights
         c = config
-        self.max_rewards = (c.w_dist + c.w_align) * contacts.active.any(axis=1) + c.w_com * (contacts.air_box >= 0)
+        self.max_rewards = (c.w_dist + c.w_align + c.w_height) * contacts.active.any(axis=1) + c.w_com * (contacts.air_box >= 0)
 
     @classmethod
     def for_track(cls, track, scene: Scene, frame: SceneFrame, config: SceneRewardConfig = SceneRewardConfig()) -> "SceneReward":
@@ -220,7 +241,7 @@ class SceneReward:
               com_vel: np.ndarray, e: np.ndarray, terms: np.ndarray | None = None) -> np.ndarray:
         """(B,) r_scene. rows (B,) reference rows; limb_pos (B, 4, 3) world link origins of
         SCENE_LIMBS; pelvis_front (B, 3) the root's +x axis; com, com_vel (B, 3); e (B, 2K).
-        `terms` (B, 3), if given, receives r_dist, r_align, r_com."""
+        `terms` (B, 4), if given, receives r_dist, r_align, r_com, r_height."""
         c, contacts = self.config, self.contacts
         b = len(rows)
         out_terms = np.zeros((b, NUM_TERMS)) if terms is None else terms
@@ -234,6 +255,8 @@ class SceneReward:
             touching = target.max(axis=1) >= 0
             out_terms[:, 0] = touching * np.exp(-c.alpha_dist * squared)
             out_terms[:, 1] = touching * np.exp(-c.alpha_align * (1.0 - pelvis_front @ self.u_obj) ** 2)
+            if c.w_height:
+                out_terms[:, 3] = touching * np.exp(-c.alpha_height * (com[:, 2] - contacts.com_height[rows]) ** 2)
         box = contacts.air_box[rows]
         flying = np.flatnonzero(box >= 0)
         if flying.size:
@@ -242,4 +265,4 @@ class SceneReward:
             predicted = com[flying] + com_vel[flying] * tau + 0.5 * GRAVITY * tau ** 2 - contacts.air_offset[r]
             gap = self.zone_distance(box[flying], contacts.air_limb[r], predicted + CONTACT_LIFT[contacts.air_limb[r], None] * [0, 0, 1], e[flying])
             out_terms[flying, 2] = np.exp(-c.alpha_com * np.einsum("ij,ij->i", gap, gap))
-        return out_terms @ np.array([c.w_dist, c.w_align, c.w_com])
+        return out_terms @ self._weights

@@ -1,5 +1,6 @@
 """002's scene reward (actors/scene_reward.py, eq. 10-12): each term is 1 at a perfect contact,
-alignment and landing, falls with the distance, and is 0 where the reference touches no box."""
+alignment and landing, falls with the distance, and is 0 where the reference touches no box;
+our r_height term pays for the reference's centre-of-mass height while on a box."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -9,7 +10,7 @@ import pytest
 
 from actors.motion_io import load_motion
 from actors.scene import Box, Scene, SceneFrame
-from actors.scene_reward import CONTACT_LIFT, GRAVITY, SceneContacts, SceneReward
+from actors.scene_reward import CONTACT_LIFT, GRAVITY, SceneContacts, SceneReward, SceneRewardConfig
 
 SCENE = Scene((Box("step", along=1.0, height=0.3, size=(0.8, 0.6), lateral=0.2),))
 FRAME = SceneFrame(origin=(0.5, -1.0), yaw=np.pi / 2)  # heading +y: along maps to world y
@@ -18,15 +19,20 @@ TOP_CENTRE = np.array([0.5 - 0.2, -1.0 + 1.0, 0.3])  # lateral +0.2 is world -x
 TAU, OFFSET = 0.4, np.array([0.1, -0.2, 0.8])
 
 
-def _reward():
+COM_HEIGHT = np.array([1.2, 1.2, 1.1, 0.9])  # the reference's centre of mass per row
+PAPER_TERMS = SceneRewardConfig(w_height=0.0)  # eq. 10-12 alone
+
+
+def _reward(config=PAPER_TERMS):
     target = np.array([[0, -1, -1, -1], [-1, -1, 0, -1], [-1, -1, -1, -1], [-1, -1, -1, -1]])
     contacts = SceneContacts(target, air_box=np.array([-1, -1, 0, -1]), air_limb=np.array([0, 0, 0, 0]),
-                             air_time=np.array([0.0, 0.0, TAU, 0.0]), air_offset=np.array([np.zeros(3), np.zeros(3), OFFSET, np.zeros(3)]))
-    return SceneReward(SCENE, FRAME, contacts)
+                             air_time=np.array([0.0, 0.0, TAU, 0.0]), air_offset=np.array([np.zeros(3), np.zeros(3), OFFSET, np.zeros(3)]),
+                             com_height=COM_HEIGHT)
+    return SceneReward(SCENE, FRAME, contacts, config)
 
 
 def _call(reward, row, limbs, front=(0.0, 1.0, 0.0), com=np.zeros(3), com_vel=np.zeros(3)):
-    terms = np.zeros((1, 3))
+    terms = np.zeros((1, 4))
     total = reward.batch(np.array([row]), limbs[None], np.array([front]), com[None], com_vel[None], E, terms)
     return float(total[0]), terms[0]
 
@@ -97,7 +103,7 @@ def test_the_box_clip_reference_earns_the_scene_reward_on_the_true_box():
     def terms_at(row, e):
         env.set_reference_state(row)
         env.features.capture(0, env.data)
-        terms = np.zeros((1, 3))
+        terms = np.zeros((1, 4))
         env.scene_reward.batch(np.array([row]), env.features.pos[:, env.scene_limbs], env.features.root_xmat[:, ::3],
                                env.features.com, env.features.com_vel, np.asarray(e, float)[None], terms)
         return terms[0]
@@ -106,6 +112,20 @@ def test_the_box_clip_reference_earns_the_scene_reward_on_the_true_box():
     assert min(terms_at(r, truth)[0] for r in on_box[2:]) > 0.97
     assert np.mean([terms_at(r, truth)[2] for r in flying[len(flying) // 2:]]) > 0.9
     assert terms_at(on_box[5], truth + [0.0, 0.3])[0] < 0.3
+    assert min(terms_at(r, truth)[3] for r in on_box) > 0.999  # the reference's own centre of mass
+
+
+def test_height_pays_the_reference_centre_of_mass_height_on_a_box_only():
+    reward = _reward(SceneRewardConfig())
+    on_zone = TOP_CENTRE + [0.05, 0.05, CONTACT_LIFT[0]]
+    heights = [_call(reward, 0, _limbs(right_foot=on_zone), com=np.array([0.0, 0.0, COM_HEIGHT[0] - d]))[1][3]
+               for d in (0.0, 0.1, 0.2)]
+    np.testing.assert_allclose(heights, np.exp(-50.0 * np.array([0.0, 0.1, 0.2]) ** 2))
+    total, _ = _call(reward, 0, _limbs(right_foot=on_zone), com=np.array([0.0, 0.0, COM_HEIGHT[0]]))
+    assert total == pytest.approx(0.5 + 0.2 + 0.3)
+    flying = _call(reward, 2, _limbs(), com=np.array([0.0, 0.0, COM_HEIGHT[2]]))[1][3]
+    assert flying == 0.0  # no limb on a box: in the air the ballistic r_com speaks instead
+    np.testing.assert_allclose(reward.max_rewards, [1.0, 1.0, 0.3, 0.0])
 
 
 def test_box_contacts_naming_a_missing_box_is_one_line():
