@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from actors import quaternion as qn
-from actors.falls import FallDetector, allowed_contact_links, clip_key, fall_contact_links
+from actors.falls import MIN_ROOT_HEIGHT, FallDetector, allowed_contact_links, clip_key, fall_contact_links
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.skeleton import JOINT_NAMES, LINK_NAMES
 from tests.conftest import load_clip
@@ -158,6 +158,7 @@ def test_strict_detector_adds_a_root_height_floor(humanoid):
     assert FallDetector.for_clip(humanoid, "deepmimic:walk", strict=True)(data)
     assert not FallDetector.for_clip(humanoid, "deepmimic:walk")(data)
     assert not FallDetector.for_clip(humanoid, "deepmimic:roll", strict=True)(data)  # meant to be low
+    assert not FallDetector.for_clip(humanoid, "deepmimic:crawl", strict=True)(data)  # on hands and knees
     data.qpos[2] = 0.5
     assert not FallDetector.for_clip(humanoid, "deepmimic:walk", strict=True)(data)
 
@@ -216,3 +217,19 @@ def test_roll_has_no_fall_rule(clips, humanoid):
         assert not terminated and not truncated
         touched |= touching(humanoid, env.data)
     assert touched & {"root", "chest", "neck"}, "the torso or head did touch the floor"
+
+
+def test_the_crawl_reference_is_no_strict_fall_anywhere_in_its_clip(humanoid):
+    """Every frame of the crawl's own reference, posed with its contacts, passes the strict rule
+    (its pelvis goes down to 0.17 m); a chest on the floor still fails it."""
+    env = ImitationEnv(load_clip("crawl"), EnvConfig())
+    strict = FallDetector.for_clip(env.humanoid, "deepmimic:crawl", strict=True)
+    low = []
+    for row in range(0, env.track.qpos.shape[0] // 10, 2):
+        env.set_reference_state(row)
+        mujoco.mj_forward(env.model, env.data)
+        assert not strict(env.data), row
+        low.append(env.data.qpos[2] < MIN_ROOT_HEIGHT)
+    assert any(low)  # the floor would have fired
+    down = on_the_floor(env.humanoid, head_down(env.humanoid))
+    assert strict(down)
