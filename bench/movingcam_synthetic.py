@@ -42,6 +42,12 @@ if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
 RESULT = REPO / "bench" / "results" / "movingcam_synthetic.json"
+
+
+def result_path(clip: str) -> Path:
+    """bench/results/movingcam_synthetic.json for the walk (the first check), ..._<clip>.json else."""
+    name = clip.rsplit(":", 1)[-1].rsplit("/", 1)[-1].removesuffix(".npz").removesuffix(".txt")
+    return RESULT if name == "walk" else RESULT.with_name(f"{RESULT.stem}_{name}.json")
 EPISODES = 16  # starts at phases k / 16, as the strict evaluation's
 
 
@@ -150,7 +156,7 @@ def plot_paths(episodes: list[dict], png: Path, clip: str) -> None:
     plt.close(fig)
 
 
-def report(out: Path, clip: str, noise_rad: float, command: str) -> dict:
+def report(out: Path, clip: str, noise_rad: float, command: str, result_file: Path | None = None) -> dict:
     from threadpoolctl import threadpool_limits
 
     from actors.motion_io import load_motion
@@ -158,6 +164,7 @@ def report(out: Path, clip: str, noise_rad: float, command: str) -> dict:
     from services.training.policy_source import load_policy_source
     from services.training.run_dir import read_metrics
 
+    result_file = result_path(clip) if result_file is None else Path(result_file)
     run = out / "run"
     source = load_policy_source(run, None, None)
     env = make_eval_env(load_motion(source.motion), source.env_config)
@@ -167,7 +174,7 @@ def report(out: Path, clip: str, noise_rad: float, command: str) -> dict:
         episodes = [rollout_paths(source.policy, env, clean, float(p)) for p in phases]
         strict = evaluate_policy(source.policy, env, EPISODES, seed=0)
     figures = [path_figures(paths) for paths in episodes]
-    plot_paths(episodes, RESULT.with_suffix(".png"), clip)
+    plot_paths(episodes, result_file.with_suffix(".png"), clip)
     survivors = [f for f in figures if f["survived_s"] >= 0.99 * env.config.horizon_s]
     summary = {key: float(np.mean([f[key] for f in figures])) for key in figures[0]}
     summary_survivors = {key: float(np.mean([f[key] for f in survivors])) for key in figures[0]} if survivors else None
@@ -187,10 +194,10 @@ def report(out: Path, clip: str, noise_rad: float, command: str) -> dict:
         "eval_curve": curve,
         "written": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
     }
-    RESULT.parent.mkdir(parents=True, exist_ok=True)
+    result_file.parent.mkdir(parents=True, exist_ok=True)
     from learner.atomic_io import atomic_output
 
-    with atomic_output(RESULT) as tmp:
+    with atomic_output(result_file) as tmp:
         Path(tmp).write_text(json.dumps(result, indent=1) + "\n")
     return result
 
@@ -203,12 +210,13 @@ def main(argv=None) -> int:
     p.add_argument("--noise-rad", type=float, default=0.05, help="std of the joint-rotation noise (rad)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--command", default="", help="the training command, recorded in the result")
+    p.add_argument("--result", type=Path, default=None, help="report: the JSON to write (default bench/results/movingcam_synthetic[_<clip>].json)")
     args = p.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     if args.stage == "prepare":
         print(prepare(args.clip, args.noise_rad, args.seed, args.out))
     else:
-        print(json.dumps(report(args.out, args.clip, args.noise_rad, args.command), indent=1))
+        print(json.dumps(report(args.out, args.clip, args.noise_rad, args.command, args.result), indent=1))
     return 0
 
 

@@ -3,7 +3,7 @@ and "Table 2 of 002 in spirit" (the initial-guess scene against the fitted one).
 
     python bench/scene_fit.py [--motion bench/scenes/box_jump.npz] [--scene bench/scenes/box_jump.yaml]
                               [--samples 1000000] [--workers 2] [--envs-per-worker 16] [--out-dir runs/scene_fit_box]
-                              [--torch-threads 1] [--result bench/results/scene_fit.json]
+                              [--torch-threads 1] [--gamma G] [--result bench/results/scene_fit.json]
 
 The clip is the scene engineer's synthetic box jump (`bench/box_clip.py`: DeepMimic's jump
 landing on a box, the true box in its extras `scene_truth`); the scene file is the first guess
@@ -70,6 +70,7 @@ def main(argv=None) -> int:
     parser.add_argument("--runner", default="processes", choices=("ray", "in_process", "processes"))
     parser.add_argument("--torch-threads", type=int, default=1)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--gamma", type=float, default=None, help="PPO discount of the windows' trainings (default: the scene fit's, windows.WINDOW_GAMMA)")
     parser.add_argument("--out-dir", default="runs/scene_fit_box", help="the windows' run directories (kept: a rerun resumes)")
     parser.add_argument("--result", default=str(HERE / "results" / "scene_fit.json"))
     args = parser.parse_args(argv)
@@ -80,6 +81,7 @@ def main(argv=None) -> int:
     from services.scene_fit import scene_contract
     from services.scene_fit.final_rollout import final_rollout
     from services.scene_fit.stage import run_scene_fit, window_terms
+    from services.scene_fit.windows import WINDOW_GAMMA
     from services.training.config import TrainConfig
 
     started = time.perf_counter()
@@ -87,6 +89,7 @@ def main(argv=None) -> int:
                        samples=args.samples, seed=args.seed, runner=args.runner, torch_threads=args.torch_threads,
                        eval_every=0, curriculum_samples=max(1, args.samples // 2))
     base.env = scene_contract.movingcam_env(EnvConfig(), args.scene)
+    base.ppo.gamma = WINDOW_GAMMA if args.gamma is None else args.gamma
     outcome = run_scene_fit(args.motion, args.scene, Path(args.out_dir), base, progress=False)
     clip = load_motion(args.motion)
     scene = scene_contract.load_scene(args.scene, clip)
@@ -99,7 +102,7 @@ def main(argv=None) -> int:
     terms = window_terms(outcome.runs)
     record = {
         "what": "002 §5.3 box check: one box, fitted [along, height] (m) against the truth; Table 2 in spirit",
-        "motion": args.motion, "scene": args.scene, "samples_per_window": args.samples, "init": args.init,
+        "motion": args.motion, "scene": args.scene, "samples_per_window": args.samples, "init": args.init, "gamma": base.ppo.gamma,
         "workers": args.workers, "envs_per_worker": args.envs_per_worker, "windows": len(summary["windows"]),
         "truth": truth.tolist(), "initial_guess": guess.tolist(), "fitted": fitted.tolist(),
         "error_initial_m": np.abs(guess - truth).tolist(), "error_fitted_m": np.abs(fitted - truth).tolist(),
