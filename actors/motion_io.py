@@ -18,7 +18,7 @@ Formats
   its joint names and the clip retargeted onto the humanoid (`actors/bvh_import.py`).
 - Names: `deepmimic:<clip>` resolves to `pybullet_data/data/motions/humanoid3d_<clip>.txt`
   (install the `mocap` extra); `deepmimic:<clip>_mirror` is that clip mirrored left/right
-  (`actors/mirror.py`); anything else is a path.
+  (`actors/mirror.py`), as is `FILE_mirror` for a motion file FILE; anything else is a path.
 
 Every fault raises `MotionFormatError` with the file and the fault in one line.
 """
@@ -63,11 +63,17 @@ def resolve_motion_path(name_or_path: str) -> Path:
     return path
 
 
+def _is_mirror_of_file(name: str) -> bool:
+    """`FILE_mirror` where no such file exists but FILE does: FILE mirrored (how a mirrored
+    expert names the clip of an expert trained on a file, `actors/mirror.mirrored_name`)."""
+    return not Path(name).exists() and Path(name[: -len(MIRROR_SUFFIX)]).is_file()
+
+
 def load_motion(name_or_path: str) -> ReferenceMotion:
     """Load a motion by name (`deepmimic:walk`, `deepmimic:walk_mirror`) or path (.npz,
     DeepMimic JSON or BVH)."""
     name = str(name_or_path)
-    if name.startswith("deepmimic:") and name.endswith(MIRROR_SUFFIX):
+    if name.endswith(MIRROR_SUFFIX) and (name.startswith("deepmimic:") or _is_mirror_of_file(name)):
         return mirror_motion(load_motion(name[: -len(MIRROR_SUFFIX)]))
     path = resolve_motion_path(name)
     try:

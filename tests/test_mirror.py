@@ -5,6 +5,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from actors import quaternion as qn
 from actors.actions import ActionMapper
 from actors.features import FeatureExtractor, update_kinematics
 from actors.humanoid import Humanoid
@@ -13,6 +14,7 @@ from actors.kinematics import forward_kinematics
 from actors.mirror import (LINK_MIRROR, POLAR, QUAT, action_mirror, mirror_motion, mirrored_name, observation_mirror,
                            state_mirror)
 from actors.skeleton import JOINT_IS_SPHERICAL, LINKS, OFFSETS
+from learner.errors import SfvError
 
 
 @pytest.fixture(scope="module")
@@ -128,3 +130,16 @@ def test_mirrored_expert_acts_as_the_mirrored_policy(walk_clip, humanoid):
         obs, *_ = env.step(action[0])
         obs_m, *_ = env_m.step(action_m[0])
     np.testing.assert_allclose(env_m.data.qpos, state_mirror(humanoid)[0](env.data.qpos), atol=1e-6)
+
+
+def test_a_motion_file_name_with_the_mirror_suffix_loads_the_file_mirrored(walk_clip, tmp_path):
+    from actors.motion_bend import bend_motion
+    from actors.motion_io import load_motion, save_motion
+
+    path = save_motion(bend_motion(walk_clip, 0.5, 2.0, name="walk_left"), tmp_path / "walk_left.npz")
+    mirrored = load_motion(f"{path}_mirror")
+    original = load_motion(str(path))
+    np.testing.assert_allclose(mirrored.root_pos[:, 1], -original.root_pos[:, 1])
+    assert np.degrees(np.unwrap(qn.heading_angle(mirrored.root_rot))[-1]) < -50  # turns right
+    with pytest.raises(SfvError, match="not found"):
+        load_motion(str(tmp_path / "absent.npz_mirror"))

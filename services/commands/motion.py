@@ -2,6 +2,7 @@
 
     sfv motion check MOTION [--physics-hz HZ]
     sfv motion convert IN --out OUT.npz [--rig auto|NAME|MAP.yaml] [--up +y] [--forward +z] [--units cm] [--loop auto]
+    sfv motion bend MOTION --yaw-rate DEG_PER_S --seconds S --out OUT.npz
 
 MOTION is a DeepMimic clip name (`deepmimic:walk`) or a path (.npz, DeepMimic JSON or BVH).
 A BVH from another rig is retargeted onto the humanoid (`actors/retarget.py`); `convert`
@@ -12,6 +13,8 @@ clip's summary and `playback_reward`, the mean reward when the simulated charact
 exactly on the reference at every control step of one pass of the clip. A value below 1
 means the reward's reference features and the simulated features disagree (a kinematics
 or state-layout bug), not that the clip is hard. `convert` writes the project's .npz.
+`bend` plays a (looped) clip along a path turning at a constant rate (`actors/motion_bend.py`):
+the turning walk the motor module's vocabulary needs (NPMP, 004 §3.4).
 """
 from __future__ import annotations
 
@@ -38,6 +41,14 @@ def register(subparsers) -> None:
     convert.add_argument("--out", required=True, help="where to write the .npz (written atomically)")
     _add_bvh_flags(convert)
     convert.set_defaults(handler=run_convert)
+
+    bend = actions.add_parser("bend", help="play a clip along a path turning at a constant rate; save it as .npz")
+    bend.add_argument("motion", help="deepmimic:<clip> or a motion file (a loop plays for --seconds)")
+    bend.add_argument("--yaw-rate", type=float, required=True, help="turning rate in degrees per second (positive: to the left)")
+    bend.add_argument("--seconds", type=float, required=True, help="length of the bent clip (s)")
+    bend.add_argument("--name", default=None, help="the clip's name (default: <motion>_turn<rate>)")
+    bend.add_argument("--out", required=True, help="where to write the .npz (written atomically)")
+    bend.set_defaults(handler=run_bend)
 
 
 def _add_bvh_flags(parser) -> None:
@@ -120,4 +131,21 @@ def run_convert(args: argparse.Namespace) -> int:
     if retarget_report is not None:
         report["retarget"] = retarget_report
     print(json.dumps(report))
+    return 0
+
+
+def run_bend(args: argparse.Namespace) -> int:
+    from actors.motion_bend import bend_motion
+    from actors.motion_io import load_motion, save_motion
+
+    if not (math.isfinite(args.seconds) and 0 < args.seconds <= 600):
+        raise SfvError(f"--seconds must be in (0, 600], got {args.seconds}")
+    if not (math.isfinite(args.yaw_rate) and abs(args.yaw_rate) <= 360):
+        raise SfvError(f"--yaw-rate must be a number of degrees per second within +-360, got {args.yaw_rate}")
+    motion = bend_motion(load_motion(args.motion), math.radians(args.yaw_rate), args.seconds, args.name)
+    try:
+        path = save_motion(motion, args.out)
+    except OSError as exc:
+        raise SfvError(f"{args.out}: cannot write motion ({exc.strerror or exc})") from None
+    print(json.dumps({**motion.summary(), "out": str(path)}))
     return 0
