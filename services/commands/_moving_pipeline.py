@@ -21,11 +21,13 @@ VIDEO_FILE = "simulated.mp4"
 def _base_config(args, scene_path):
     from actors.imitation_env import EnvConfig
     from services.scene_fit import scene_contract
+    from services.scene_fit.windows import WINDOW_GAMMA
     from services.training.config import TrainConfig
 
     base = TrainConfig(motion="", out="", workers=args.workers, envs_per_worker=args.envs_per_worker, init=args.init,
                        samples=args.samples, seed=args.seed, ray_address=args.ray_address)
     base.env = scene_contract.movingcam_env(EnvConfig(), None if scene_path is None else str(scene_path))
+    base.ppo.gamma = WINDOW_GAMMA  # eq. 15 reads a window's first value as its cumulative reward
     if args.batch_size:
         base.ppo.batch_size = args.batch_size
         base.ppo.minibatch_size = min(base.ppo.minibatch_size, args.batch_size)
