@@ -39,3 +39,22 @@ def test_the_bent_walk_turns_at_the_rate_and_keeps_steps_joints_and_heading_to_t
 def test_a_bad_duration_is_an_error():
     with pytest.raises(ValueError, match="seconds"):
         bend_motion(load_clip("walk"), 0.5, 0.0)
+
+
+def test_cli_writes_the_bent_clip_and_names_a_bad_flag(tmp_path, capsys):
+    import json
+
+    from actors.motion_io import load_motion
+    from services.cli import main as sfv_main
+
+    load_clip("walk")  # skips without pybullet_data
+    out = tmp_path / "walk_left.npz"
+    assert sfv_main(["motion", "bend", "deepmimic:walk", "--yaw-rate", "30", "--seconds", "3", "--name", "walk_left", "--out", str(out)]) == 0
+    report = json.loads(capsys.readouterr().out)
+    bent = load_motion(str(out))
+    assert report["name"] == bent.name == "walk_left" and not bent.loop
+    straight = bend_motion(load_clip("walk"), 0.0, 3.0)
+    turned = np.unwrap(qn.heading_angle(bent.root_rot)) - np.unwrap(qn.heading_angle(straight.root_rot))
+    assert np.degrees(turned[-1]) == pytest.approx(90.0, abs=0.5)
+    assert sfv_main(["motion", "bend", "deepmimic:walk", "--yaw-rate", "30", "--seconds", "-1", "--out", str(tmp_path / "x.npz")]) == 2
+    assert "--seconds" in capsys.readouterr().err and not (tmp_path / "x.npz").exists()
