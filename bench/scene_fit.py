@@ -80,7 +80,8 @@ def main(argv=None) -> int:
     from learner.atomic_io import atomic_write_json
     from services.scene_fit import scene_contract
     from services.scene_fit.final_rollout import final_rollout
-    from services.scene_fit.stage import run_scene_fit, window_terms
+    from services.scene_fit.fit_tasks import window_terms
+    from services.scene_fit.stage import run_scene_fit
     from services.scene_fit.windows import WINDOW_GAMMA
     from services.training.config import TrainConfig
 

@@ -45,7 +45,9 @@ def test_two_deaths_in_a_row_are_two_restarts(tmp_path):
         for version in range(3):
             results = runner.collect({}, version, 1, {})
             assert len(results) == 2  # the lost share was reissued
-        assert faults.failures == 2
+        # Two deaths lose at least two shares; a share sent while Ray is still restarting the actor
+        # fails too (ActorUnavailableError, seen on a loaded machine), and is reissued like the others.
+        assert faults.failures >= 2
         assert faults.restarts == 2
         assert runner._pids[0] != first_pid
     finally:

@@ -7,7 +7,7 @@
 - `value.py`: a window's value network read from its checkpoint.
 - `fit.py`: the scene e maximising sum_n V_n(s(t_{n-1}), e) - V_n(s(t_n), e), SLSQP.
 - `final_rollout.py`: the windows' policies chained in the fitted scene; the simulated motion.
-- `fit_tasks.py`: the fit and the final rollouts as Ray tasks (in process without Ray).
+- `fit_tasks.py`: eq. 14's terms, the fit and the final rollouts as Ray tasks (in process without Ray).
 - `outputs.py`: what the pipeline writes (motion npz + BVH, the fitted scene, the summary).
 - `scene_contract.py`: the one place this package meets the scene boxes and movingcam mode.
 """

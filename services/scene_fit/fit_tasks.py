@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from services.scene_fit import scene_contract
+from services.scene_fit.fit import FitResult, WindowTerms, fit_scene
 
 
 @dataclass
@@ -27,10 +28,24 @@ class FitStages:
     simulated: object  # final_rollout.SimulatedRun in the fitted scene (or the empty arena)
 
 
-def fit_task(runs, scene, starts: int, seed: int):
-    from services.scene_fit.stage import fit_windows_scene
+def window_terms(runs) -> list[WindowTerms]:
+    """Each trained window's value network and its rollouts' observations (those that reached
+    the control end), the terms of eq. 14; the last window's control end is the clip's end,
+    whose value is 0 (`fit.py`)."""
+    from services.scene_fit.value import ValueFunction
 
-    return fit_windows_scene(runs, scene, starts=starts, seed=seed)
+    terms = []
+    for k, run in enumerate(runs):
+        rollouts = run.rollouts().handover()
+        last = k == len(runs) - 1
+        terms.append(WindowTerms(ValueFunction.from_run(run.train_dir), rollouts.start_obs, None if last else rollouts.end_obs))
+    return terms
+
+
+def fit_task(runs, scene, starts: int, seed: int) -> FitResult:
+    """SLSQP on eq. 14 with every window's value network and rollouts."""
+    return fit_scene(window_terms(runs), scene_contract.scene_obs(scene), scene_contract.scene_vector(scene),
+                     scene_contract.scene_bounds(scene), starts=starts, seed=seed)
 
 
 def rollout_task(runs, e, seed: int):

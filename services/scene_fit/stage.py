@@ -14,7 +14,6 @@ import numpy as np
 
 from actors.motion_io import load_motion
 from services.scene_fit import scene_contract
-from services.scene_fit.fit import FitResult, WindowTerms, fit_scene
 from services.scene_fit.windows import MAX_OBJECTS, Window, proportional_contact_frames, split_windows
 from services.training.config import TrainConfig
 
@@ -46,26 +45,6 @@ def plan_windows(num_frames: int, scene, max_objects: int = MAX_OBJECTS) -> list
     alongs = np.array([box.along for box in scene.boxes])
     frames = proportional_contact_frames(alongs, num_frames)
     return split_windows(num_frames, [(int(f), i) for i, f in enumerate(frames)], max_objects)
-
-
-def window_terms(runs) -> list[WindowTerms]:
-    """Each trained window's value network and its rollouts' observations (those that reached
-    the control end), the terms of eq. 14; the last window's control end is the clip's end,
-    whose value is 0 (`fit.py`)."""
-    from services.scene_fit.value import ValueFunction
-
-    terms = []
-    for k, run in enumerate(runs):
-        rollouts = run.rollouts().handover()
-        last = k == len(runs) - 1
-        terms.append(WindowTerms(ValueFunction.from_run(run.train_dir), rollouts.start_obs, None if last else rollouts.end_obs))
-    return terms
-
-
-def fit_windows_scene(runs, scene, starts: int = 4, seed: int = 0) -> FitResult:
-    """SLSQP on eq. 14 with every window's value network and rollouts."""
-    return fit_scene(window_terms(runs), scene_contract.scene_obs(scene), scene_contract.scene_vector(scene),
-                     scene_contract.scene_bounds(scene), starts=starts, seed=seed)
 
 
 def run_scene_fit(motion_path: str, scene_path: str | None, out: Path, base: TrainConfig,
