@@ -72,6 +72,15 @@ def fall_contact_links(motion_name: str, override: tuple[str, ...] | None = None
     return np.array([i for i, link in enumerate(LINKS) if link.name not in allowed], dtype=np.int64)
 
 
+def body_geom_mask(model: mujoco.MjModel, bodies) -> np.ndarray:
+    """(ngeom,) bool: the geoms of the bodies `bodies` (MuJoCo body ids)."""
+    mask = np.zeros(model.ngeom, dtype=bool)
+    for body in bodies:
+        start, count = model.body_geomadr[body], model.body_geomnum[body]
+        mask[start:start + count] = True
+    return mask
+
+
 class FallDetector:
     """Ground contact of a fall link (and, with `min_root_height`, a pelvis too low).
 
@@ -81,12 +90,7 @@ class FallDetector:
     def __init__(self, humanoid, links: np.ndarray, min_root_height: float | None = None):
         self.links = np.asarray(links, dtype=np.int64)
         self.min_root_height = min_root_height
-        model = humanoid.model
-        self.mask = np.zeros(model.ngeom, dtype=bool)
-        for i in self.links:
-            body = humanoid.body_ids[i]
-            start, count = model.body_geomadr[body], model.body_geomnum[body]
-            self.mask[start:start + count] = True
+        self.mask = body_geom_mask(humanoid.model, humanoid.body_ids[self.links])
         self.mask[humanoid.floor_geom_id] = False
         self._root_z_index = 2  # qpos[2]: the free root's height
 

@@ -17,7 +17,6 @@ own frames score `pose_log_density_experts`).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -25,6 +24,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without installing
+
+from learner.motor_module import prior_sample  # noqa: E402  the module's own AR(1) step (numpy arrays too)
 
 RESULT = Path(__file__).resolve().parent / "results" / "npmp" / "prior_samples.json"
 LATENT_SCALE = 4.0  # the task action box maps to +-4 sigma, so prior draws are (almost) never clipped
@@ -41,8 +42,7 @@ class LatentStream:
     def mean(self, obs: np.ndarray) -> np.ndarray:
         action = (self.z / LATENT_SCALE).astype(np.float32)
         if not self.zero:
-            step = np.sqrt(1.0 - self.alpha ** 2) * self.sigma * self.rng.standard_normal(self.z.shape)
-            self.z = self.alpha * self.z + step
+            self.z = prior_sample(self.z, self.alpha, self.sigma, self.rng.standard_normal(self.z.shape))
         return action
 
 
@@ -73,8 +73,10 @@ def main(argv=None) -> int:
     from learner.atomic_io import atomic_write_json
     from services.tasks.pose_prior import PosePrior, clip_poses
 
-    settings = json.loads((Path(args.module) / "config.json").read_text())["module"]
-    alpha, sigma, dim = float(settings["alpha"]), float(settings["prior_std"]), int(settings["latent_dim"])
+    from services.motor.training import load_module
+
+    settings = load_module(Path(args.module)).config
+    alpha, sigma, dim = float(settings.alpha), float(settings.prior_std), int(settings.latent_dim)
     prior = PosePrior.fit()
     started = time.perf_counter()
     with threadpool_limits(1, user_api="blas"):

@@ -16,19 +16,9 @@ cannot see. Hands and arms may touch the box; pushing is what the task asks.
 from __future__ import annotations
 
 import mujoco
-import numpy as np
 
-from actors.falls import MIN_ROOT_HEIGHT, FallDetector, fall_contact_links
+from actors.falls import MIN_ROOT_HEIGHT, FallDetector, body_geom_mask, fall_contact_links
 from actors.skeleton import FALL_CONTACT_LINKS
-
-
-def _body_geoms(model, bodies) -> np.ndarray:
-    """(ngeom,) bool: the geoms of `bodies`."""
-    mask = np.zeros(model.ngeom, dtype=bool)
-    for body in bodies:
-        start, count = model.body_geomadr[body], model.body_geomnum[body]
-        mask[start:start + count] = True
-    return mask
 
 
 class FloorFall(FallDetector):
@@ -36,8 +26,8 @@ class FloorFall(FallDetector):
         super().__init__(humanoid, fall_contact_links("walk"), MIN_ROOT_HEIGHT)  # the feet may touch, nothing else
         model = humanoid.model
         self.floor = humanoid.floor_geom_id
-        self.trunk = _body_geoms(model, humanoid.body_ids[FALL_CONTACT_LINKS])
-        self.prop = ~_body_geoms(model, humanoid.body_ids)
+        self.trunk = body_geom_mask(model, humanoid.body_ids[FALL_CONTACT_LINKS])
+        self.prop = ~body_geom_mask(model, humanoid.body_ids)
         self.prop[self.floor] = False
         self.has_props = bool(self.prop.any())
 
