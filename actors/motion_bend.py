@@ -38,5 +38,5 @@ def bend_motion(motion: ReferenceMotion, yaw_rate: float, seconds: float, name: 
     xy = np.concatenate((pose.root_pos[:1, :2], pose.root_pos[:1, :2] + np.cumsum(turned, axis=0)))
     root_pos = np.column_stack((xy, pose.root_pos[:, 2]))
     root_rot = qn.quat_normalize(qn.quat_mul(qn.quat_about_axis(yaw, UP), pose.root_rot))
-    label = name or f"{motion.name}_turn{np.degrees(yaw_rate):+.0f}"
+    label = name or f"{motion.name.rsplit(':', 1)[-1]}_turn{np.degrees(yaw_rate):+.0f}"  # a file of its own, not deepmimic:<clip>
     return ReferenceMotion(label, times, root_pos, root_rot, pose.joint_rot.copy(), loop=False)
