@@ -37,7 +37,7 @@ from actors.features import FeatureExtractor, RewardFeatures, observation_dim, u
 from actors.humanoid import Humanoid, PhysicsConfig, control_substeps
 from actors.motion import ReferenceMotion
 from actors.movingcam import ENV_MODES, MovingcamConfig, MovingcamTracking
-from actors.reference_obs import ReferenceObservation
+from actors.reference_obs import ReferenceObservation, ReferencePoseObservation
 from actors.reference_track import ReferenceTrack
 from actors.reward import NUM_TERMS, ImitationReward, RewardConfig
 from actors.reward import TERM_NAMES as REWARD_TERM_NAMES
@@ -45,6 +45,7 @@ from actors.reward_movingcam import TERM_NAMES as MOVINGCAM_TERM_NAMES
 from actors.root_sync import RootSync
 from actors.scene_reward import SCENE_LIMB_LINKS, SceneReward, SceneRewardConfig
 from actors.state import StateLayout
+from actors.tracking_termination import TrackingTermination
 
 INIT_STRATEGIES = ("fsi", "rsi", "state")
 
@@ -56,13 +57,16 @@ class EnvConfig:
     reward: RewardConfig = field(default_factory=RewardConfig, metadata={"help": "reward weights and scales"})
     horizon_s: float = field(default=20.0, metadata={"help": "episode horizon for looped clips (seconds)"})
     early_termination: bool = field(default=True, metadata={"help": "end the episode when a link the clip does not allow on the ground touches it (DeepMimic: every link but the feet); off for rolls"})
+    tracking_termination_m: float = field(default=0.0, metadata={"help": "also end the episode (as a fall) when an end effector or the root is farther than this (m) from the reference's (MimicKit pose_termination, PHC/ProtoMotions 0.25-0.5 m; actors/tracking_termination.py); 0: off. Never used by evaluation"})
     ground_contact_links: tuple[str, ...] | None = field(default=None, metadata={"help": "links besides the feet that may touch the ground without a fall; None: the clip's DeepMimic setting (cartwheel: hands; crawl: limbs; roll, getups: all)"})
     action_parameterisation: str = field(default="exp_map", metadata={"choices": ("exp_map", "axis_angle"), "help": "exp_map (28-D, DeepMimic's current code and MimicKit) or axis_angle (36-D, SFV's, with a dead point at zero). Walk, ASI, absolute targets, eval NR at 1 M samples: exp_map .23, axis_angle .07 (every episode falls in both)"})
+    target_lead_s: float = field(default=1.0 / 15.0, metadata={"help": "residual actions add to the reference pose this long after the step they act towards (rounded to control steps), not to that step's pose: PD control lags its target by about kd/kp = 0.1 s, so the reference one step ahead leaves fast motions trailing by up to the whole residual range. Zero actions from RSI, mean end-effector reward term over the first 15 steps at a lead of 0 / 1 / 2 / 3 steps: dance_a .26/.38/.43/.30, backflip .28/.38/.43/.37, walk .56/.63/.65/.65. 0: the step's own pose (before this setting)"})
     residual_action_scale: float | None = field(default=0.5, metadata={"help": "PD target = reference target of the step acted towards + this (rad) x action (dynamic-camera paper eq. 1); None: absolute targets. Walk, ASI, exp_map, eval NR at 1 M samples: .91 with no falls residual, .23 (all episodes falling) absolute"})
     sync_root_per_cycle: bool = field(default=True, metadata={"help": "move the reference's horizontal root to the character's at each new cycle of a looped clip (DeepMimic sync_char_root_pos)"})
     zero_reward_on_fall: bool = field(default=True, metadata={"help": "the step that ends in a fall earns 0, so falling never pays"})
     init: str = field(default="rsi", metadata={"choices": ("fsi", "rsi"), "help": "start of an episode when reset() is given no state: fsi or rsi"})
     reference_obs_steps: tuple[int, ...] = field(default=(1, 15), metadata={"help": "control steps ahead at which the policy also observes the reference root (position and rotation in its heading frame, drift included; MimicKit tar_obs_steps); () for SFV's observation. Walk, ASI, same seed, eval NR at 1 M samples: .908 with (1, 15), .708 without (RSI: .929 at 1 M with, .901 at 3 M without)"})
+    reference_pose_obs_steps: tuple[int, ...] = field(default=(), metadata={"help": "control steps ahead at which the policy also observes the reference's pose: root height and link positions relative to the root in its heading frame, 46 values a step (MimicKit's target observation with key bodies; actors/reference_obs.py); () for none"})
     mode: str = field(default="sfv", metadata={"choices": ENV_MODES, "help": "sfv: DeepMimic/SFV imitation of the whole reference, root path included; movingcam: the dynamic-camera paper's tracking (002 §5: joint angles, orientation hint, contacts; the root path is left to physics, see actors/movingcam.py)"})
     movingcam: MovingcamConfig = field(default_factory=MovingcamConfig, metadata={"help": "the movingcam mode's reward and termination"})
     state_space: str = field(default="rotvec", metadata={"choices": ("rotvec", "qpos"), "help": "coordinates of the initial-state vectors ASI learns a Gaussian over: rotvec (rotations as rotation vectors, 66-D) or qpos (SFV's raw qpos[2:] + qvel, 75-D, quaternion entries perturbed one by one)"})
@@ -76,11 +80,14 @@ class EnvConfig:
         if self.scene is not None:  # absolute: workers, renders and resumes may run elsewhere
             object.__setattr__(self, "scene", os.path.abspath(self.scene))
         object.__setattr__(self, "reference_obs_steps", tuple(int(k) for k in self.reference_obs_steps))
+        object.__setattr__(self, "reference_pose_obs_steps", tuple(int(k) for k in self.reference_pose_obs_steps))
         if isinstance(self.movingcam, dict):  # from a saved run config
             object.__setattr__(self, "movingcam", MovingcamConfig(**self.movingcam))
         if self.mode not in ENV_MODES:
             raise ValueError(f"env mode must be one of {ENV_MODES}, got {self.mode!r}")
-        if any(k < 0 for k in self.reference_obs_steps):
+        if not (self.target_lead_s >= 0 and self.tracking_termination_m >= 0):
+            raise ValueError(f"target_lead_s and tracking_termination_m must be >= 0, got {self.target_lead_s}, {self.tracking_termination_m}")
+        if any(k < 0 for k in self.reference_obs_steps + self.reference_pose_obs_steps):
             raise ValueError(f"reference_obs_steps must be >= 0, got {self.reference_obs_steps}")
 
     @property
@@ -120,16 +127,20 @@ class ImitationEnv(gym.Env):
         # movingcam mode: 002's reward, termination and root-free observation (None in SFV's mode).
         self.movingcam = MovingcamTracking(self.track, self.humanoid, config.movingcam, 1, config.reference_obs_steps) if config.root_free else None
         feature_dim = observation_dim(len(config.reference_obs_steps))
+        self.reference_pose_obs = ReferencePoseObservation(self.track, 1, config.reference_pose_obs_steps)
         self.scene = None if self.box_arena is None else self.box_arena.scene
         scene_dim = 0 if self.scene is None else self.scene.vector_dim
-        self.obs_dim = feature_dim + scene_dim
+        # The observation: features (actors/features.py), the reference's poses ahead, the scene vector.
+        self.scene_obs_start = feature_dim + self.reference_pose_obs.width
+        self.obs_dim = self.scene_obs_start + scene_dim
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self.obs_dim,), np.float32)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
         self.state_dim = self.layout.state_dim
         # Per-step buffers: the hot path writes into these instead of allocating.
         self._ctrl = self.data.ctrl.reshape(1, -1)  # one view kept: MjData hands out a new array per access
         self._obs = np.zeros((1, self.obs_dim), dtype=np.float64)
-        self._obs_features = self._obs if not scene_dim else self._obs[:, :feature_dim]  # a view kept: FeatureExtractor caches by identity
+        self._obs_features = self._obs if self.obs_dim == feature_dim else self._obs[:, :feature_dim]  # a view kept: FeatureExtractor caches by identity
+        self._obs_pose = self._obs[:, feature_dim:self.scene_obs_start]
         # The scene vector e of this episode and e over its domain (the observation's tail).
         self.scene_vector = np.zeros(scene_dim)
         self.scene_obs = np.zeros(scene_dim)
@@ -145,6 +156,7 @@ class ImitationEnv(gym.Env):
             self._place_scene(None)
             self._fixed_scene = None
         self.fall_detector = FallDetector.for_clip(self.humanoid, motion.name, config.ground_contact_links)
+        self.tracking_termination = TrackingTermination(config.tracking_termination_m)
         self.root_sync = RootSync(self.track, 1, config.sync_root_per_cycle and not config.root_free)
         self.reference_obs = ReferenceObservation(self.track, 1, () if config.root_free else config.reference_obs_steps)
         self._row_buf = np.zeros(1, dtype=np.int64)
@@ -198,8 +210,14 @@ class ImitationEnv(gym.Env):
 
     # ------------------------------------------------------------------------- step
     def reference_targets(self, row: int) -> np.ndarray:
-        """(1, 28) PD targets of the reference at `row` (what residual actions add to)."""
+        """(1, 28) PD targets residual actions add to on the step towards reference `row`: the
+        reference's pose `target_lead_s` later (clamped to the table's last row)."""
+        row = min(row + self.target_lead_steps, self.track.rows - 1)
         return self.track.ctrl[row:row + 1]
+
+    @property
+    def target_lead_steps(self) -> int:
+        return int(round(self.config.target_lead_s * self.config.control_hz))
 
     def step(self, action):
         self.actions.targets_batch(np.asarray(action).reshape(1, -1), self._ctrl, self.reference_targets(self.row + 1))
@@ -212,7 +230,10 @@ class ImitationEnv(gym.Env):
         ref = self.track.features.take(self._row_buf, self._reference)
         self.root_sync.apply(self._row_buf, features.pos[:, 0, :2], ref)
         if self.movingcam is None:
-            reward = float(self.reward_fn.batch(features.reward_features(yaw), ref, self._terms)[0])
+            sim = features.reward_features(yaw)
+            reward = float(self.reward_fn.batch(sim, ref, self._terms)[0])
+            if self.config.early_termination and self.tracking_termination.active:  # evaluation turns it off
+                fell = fell or bool(self.tracking_termination(sim, ref)[0])
         else:
             self.movingcam.capture(0, self.data)
             reward = float(self.movingcam.rewards(self._row_buf, features, features.reward_features(yaw), ref, self._terms,
@@ -226,7 +247,8 @@ class ImitationEnv(gym.Env):
         features.observations(self.track.phase[row], self._obs_features, yaw, self.reference_obs.gather(self._row_buf, self.root_sync.offset))
         if self.movingcam is not None:
             self.movingcam.observe(self._row_buf, self._obs_features)
-        self._obs[0, self._obs_features.shape[1]:] = self.scene_obs
+        self.reference_pose_obs.write(self._row_buf, self._obs_pose)
+        self._obs[0, self.scene_obs_start:] = self.scene_obs
         return self._obs[0].astype(np.float32), reward, terminated, truncated, {}
 
     def simulate(self) -> tuple[bool, bool]:
@@ -352,5 +374,6 @@ class ImitationEnv(gym.Env):
         self.features.observation(self.data, self.track.phase[self.row], self._obs_features, reference)
         if self.movingcam is not None:
             self.movingcam.observe(self._row_buf, self._obs_features)
-        self._obs[0, self._obs_features.shape[1]:] = self.scene_obs
+        self.reference_pose_obs.write(self._row_buf, self._obs_pose)
+        self._obs[0, self.scene_obs_start:] = self.scene_obs
         return self._obs[0]

@@ -17,10 +17,11 @@ from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.initial_states import BufferedStarts
 from actors.motion import ReferenceMotion
 from actors.movingcam import MovingcamTracking
-from actors.reference_obs import ReferenceObservation
+from actors.reference_obs import ReferenceObservation, ReferencePoseObservation
 from actors.reference_track import ReferenceTrack
 from actors.reward import NUM_TERMS
 from actors.root_sync import RootSync
+from actors.tracking_termination import TrackingTermination
 
 
 @dataclass
@@ -79,11 +80,13 @@ class VectorImitationEnv:
         self.reward_fn = first.reward_fn
         self.early_termination = config.early_termination
         self.zero_reward_on_fall = config.zero_reward_on_fall
+        self.tracking_termination = TrackingTermination(config.tracking_termination_m if config.early_termination else 0.0, num_envs)
         self.root_sync = RootSync(track, num_envs, config.sync_root_per_cycle and not config.root_free)
         self._targets = np.zeros((num_envs, first.model.nu))
         self._base = np.zeros((num_envs, first.model.nu))  # each env's reference targets for residual actions
         self._rows = np.zeros(num_envs, dtype=np.int64)  # each env's current reference row
-        self._next_rows = np.zeros(num_envs, dtype=np.int64)
+        self._next_rows = np.zeros(num_envs, dtype=np.int64)  # the reference rows residual actions add to
+        self._target_lead = first.target_lead_steps
         self._reference = RewardFeatures.zeros(first.model.nv, num_envs)  # each env's reference row, per step
         self._fell = np.zeros(num_envs, dtype=bool)
         self._diverged = np.zeros(num_envs, dtype=bool)
@@ -96,7 +99,9 @@ class VectorImitationEnv:
             self.movingcam.set_obstacles(first.obstacle_geom_ids)
         # A scene: every env's e and normalised e as rows of one array (the envs write their rows).
         self.scene_reward = first.scene_reward
-        self._obs64_features = self._obs64[:, :obs_dim - first.scene_vector.size]
+        self._obs64_features = self._obs64[:, :obs_dim - first.scene_vector.size - first.reference_pose_obs.width]
+        self._obs64_pose = self._obs64[:, self._obs64_features.shape[1]:first.scene_obs_start]
+        self.reference_pose_obs = ReferencePoseObservation(track, num_envs, config.reference_pose_obs_steps)
         self.scene_vectors = np.stack([env.scene_vector for env in self.envs])
         self.scene_obs = np.stack([env.scene_obs for env in self.envs])
         for i, env in enumerate(self.envs):
@@ -152,7 +157,8 @@ class VectorImitationEnv:
         """
         base = None
         if self.actions.residual:
-            np.add(self._rows, 1, out=self._next_rows)
+            np.add(self._rows, 1 + self._target_lead, out=self._next_rows)
+            np.minimum(self._next_rows, self.track.rows - 1, out=self._next_rows)
             base = np.take(self.track.ctrl, self._next_rows, axis=0, out=self._base)
         targets = self.actions.targets_batch(actions, self._targets, base)
         features = self.features
@@ -168,7 +174,10 @@ class VectorImitationEnv:
         reference = track.features.take(self._rows, self._reference)
         self.root_sync.apply(self._rows, features.pos[:, 0, :2], reference)
         if self.movingcam is None:
-            rewards = self.reward_fn.batch(features.reward_features(yaw), reference, self._terms)
+            sim = features.reward_features(yaw)
+            rewards = self.reward_fn.batch(sim, reference, self._terms)
+            if self.tracking_termination.active:
+                self._fell |= self.tracking_termination(sim, reference)
         else:
             rewards = self.movingcam.rewards(self._rows, features, features.reward_features(yaw), reference, self._terms,
                                              self.early_termination)
@@ -182,7 +191,8 @@ class VectorImitationEnv:
         features.observations(track.phase[self._rows], self._obs64_features, yaw, self.reference_obs.gather(self._rows, self.root_sync.offset))
         if self.movingcam is not None:
             self.movingcam.observe(self._rows, self._obs64_features)
-        self._obs64[:, self._obs64_features.shape[1]:] = self.scene_obs
+        self.reference_pose_obs.write(self._rows, self._obs64_pose)
+        self._obs64[:, self.envs[0].scene_obs_start:] = self.scene_obs
         self.final_obs[:] = self._obs64
         self._ret += rewards
         self._disc += self._discount * rewards
