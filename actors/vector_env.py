@@ -21,7 +21,11 @@ from actors.reference_obs import ReferenceObservation, ReferencePoseObservation
 from actors.reference_track import ReferenceTrack
 from actors.reward import NUM_TERMS
 from actors.root_sync import RootSync
+from actors.skeleton import NUM_LINKS
 from actors.tracking_termination import TrackingTermination
+
+
+OTHER_END = 1 << NUM_LINKS  # a fall with no fall link on the ground: tracking deviation, divergence, movingcam's rules
 
 
 @dataclass
@@ -33,12 +37,14 @@ class EpisodeLog:
     discounted_returns: list = field(default_factory=list)
     lengths: list = field(default_factory=list)
     fell: list = field(default_factory=list)
+    fall_causes: list = field(default_factory=list)  # bitmask: bit i link i on the ground, bit NUM_LINKS another end (0: no fall)
     components: list = field(default_factory=list)
     initial_states: list = field(default_factory=list)
     state_dim: int = 0
 
     def drain(self) -> dict[str, np.ndarray]:
-        out = {k: np.asarray(v, dtype=np.float32 if k != "components" else np.int64) for k, v in self.__dict__.items() if k not in ("initial_states", "state_dim")}
+        out = {k: np.asarray(v, dtype=np.int64 if k in ("components", "fall_causes") else np.float32)
+               for k, v in self.__dict__.items() if k not in ("initial_states", "state_dim")}
         out["fell"] = out["fell"].astype(bool)
         out["initial_states"] = np.array(self.initial_states, dtype=np.float32).reshape(len(self.initial_states), self.state_dim)
         for v in self.__dict__.values():
@@ -215,5 +221,6 @@ class VectorImitationEnv:
         log.discounted_returns.append(self._disc[i])
         log.lengths.append(self._len[i])
         log.fell.append(fell)
+        log.fall_causes.append((env.fall_detector.touching(env.data) or OTHER_END) if fell else 0)
         log.components.append(self._component[i])
         log.initial_states.append(self._init_state[i].copy())

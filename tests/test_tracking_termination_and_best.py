@@ -11,11 +11,12 @@ from actors.features import RewardFeatures
 from actors.imitation_env import EnvConfig, ImitationEnv
 from actors.initial_states import BufferedStarts, ReferenceStarts
 from actors.tracking_termination import TrackingTermination
-from actors.vector_env import VectorImitationEnv
+from actors.skeleton import LINK_NAMES
+from actors.vector_env import OTHER_END, VectorImitationEnv
 from learner.checkpoint import load_checkpoint
 from learner.errors import SfvError
 from services.training.config import TrainConfig
-from services.training.driver import Trainer
+from services.training.driver import Trainer, fall_cause_shares
 from services.training.evaluation import evaluate_policy
 from services.training.run_dir import BEST_CHECKPOINT, METRICS_FILE, load_run, run_checkpoint
 
@@ -68,7 +69,23 @@ def test_the_vector_env_applies_it_per_env(walk_clip):
     _, rewards, terminated, _, _ = venv.step(np.zeros((2, venv.action_dim)))
     assert list(terminated) == [False, True]
     assert rewards[1] == 0.0 and rewards[0] > 0.3
-    assert venv.episodes.drain()["fell"].tolist() == [True]
+    episodes = venv.episodes.drain()
+    assert episodes["fell"].tolist() == [True]
+    assert episodes["fall_causes"].tolist() == [OTHER_END]  # no link on the ground: the deviation ended it
+    assert fall_cause_shares(episodes["fall_causes"]) == {"falls/other": 1.0}
+
+
+def test_fall_causes_name_the_links_on_the_ground(walk_clip, shared_humanoid):
+    env = ImitationEnv(walk_clip, EnvConfig(), shared_humanoid)
+    env.reset(seed=0, options={"init": "rsi", "phase": 0.0})
+    env.data.qpos[2] = 0.1  # the pelvis dropped to the floor: legs and more touch
+    env.data.qvel[:] = 0.0
+    _, _, terminated, _, _ = env.step(np.zeros(28))
+    causes = env.fall_detector.touching(env.data)
+    touching = {name for bit, name in enumerate(LINK_NAMES) if causes >> bit & 1}
+    assert terminated and {"left_knee", "right_knee"} <= touching and not touching & {"right_ankle", "left_ankle"}  # feet are allowed
+    shares = fall_cause_shares(np.array([causes, 0, 0, 0]))
+    assert shares["falls/left_knee"] == 0.25 and set(shares) == {f"falls/{name}" for name in touching}
 
 
 class Frozen:

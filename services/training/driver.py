@@ -26,6 +26,7 @@ import numpy as np
 from actors.imitation_env import ImitationEnv
 from actors.motion_io import load_motion
 from actors.rollout_worker import RolloutWorker, WorkerSpec
+from actors.skeleton import LINK_NAMES
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
 from learner.errors import NonFiniteError, SfvError
 from learner.ppo import PPOLearner
@@ -275,6 +276,7 @@ class Trainer:
             "time": time.time(),
         }
         record.update({k if "/" in k else f"losses/{k}": float(v) for k, v in losses.items()})
+        record.update(fall_cause_shares(batch.get("episode_fall_causes")))
         return record
 
     def _keep_best(self, learner: PPOLearner, record: dict, asi_version: int) -> None:
@@ -316,6 +318,18 @@ class Trainer:
             plot_learning_curves([self.run_dir], self.run_dir / "learning_curve.png")
         except Exception as exc:  # a plot must never stop training
             log.warning("learning-curve plot failed: %s", exc)
+
+
+def fall_cause_shares(causes: np.ndarray | None) -> dict:
+    """`falls/<link>`: the share of this batch's episodes that ended with that link on the
+    ground (several links can touch at once); `falls/other`: ended otherwise (tracking
+    deviation, divergence). Only the causes that occurred."""
+    if causes is None or not len(causes):
+        return {}
+    names = [*LINK_NAMES, "other"]
+    bits = (np.asarray(causes, np.int64)[:, None] >> np.arange(len(names))) & 1
+    shares = bits.mean(axis=0)
+    return {f"falls/{name}": float(share) for name, share in zip(names, shares) if share > 0}
 
 
 def _handover_states(config: TrainConfig) -> np.ndarray | None:
