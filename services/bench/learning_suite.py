@@ -507,14 +507,22 @@ def markdown_table(doc: dict, skills=()) -> str:
             group = [e for e in runs if e["init"] == init]
             nr = _mean([e["eval"].get("normalized_return") for e in group])
             fall = _mean([e["eval"].get("fall_rate") for e in group])
-            reached = sorted(e["samples_to_threshold"] for e in group if e.get("samples_to_threshold") is not None)
+            reached = sorted((e["samples_to_threshold"], minutes_to_threshold(e)) for e in group if e.get("samples_to_threshold") is not None)
             if not reached:
                 to = "not reached"
             else:
-                to = f"{reached[len(reached) // 2]:,}" + ("" if len(reached) == len(group) else f" ({len(reached)}/{len(group)} seeds)")
+                median, minutes = reached[len(reached) // 2]
+                to = (f"{median:,}" + ("" if minutes is None else f" ({minutes:.0f} min)")
+                      + ("" if len(reached) == len(group) else f" ({len(reached)}/{len(group)} seeds)"))
             samples = max(e["samples"] for e in group)
             lines.append(f"| {skill} | {init} | {len(group)} | {samples:,} | {_fmt(nr)} | {_fmt(fall, '.2f')} | {to} |")
     return "\n".join(lines)
+
+
+def minutes_to_threshold(entry: dict) -> float | None:
+    """Wall minutes to the threshold at the run's own average rate (samples / wall_s)."""
+    rate, reached = entry.get("samples_per_s"), entry.get("samples_to_threshold")
+    return None if not rate or reached is None else reached / rate / 60.0
 
 
 def _mean(values):
