@@ -142,3 +142,17 @@ def test_threshold_and_plot_from_eval_rows(tmp_path):
     assert plot(doc, tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
     timed = {**entry, "samples_to_threshold": 61440, "samples_per_s": 512.0}  # 120 s at its own rate
     assert "| 61,440 (2 min) |" in markdown_table({"threshold": 0.8, "runs": {"run_asi_s0": timed}})
+
+
+def test_all_skills_means_every_deepmimic_clip():
+    import argparse
+
+    from actors.motion_io import DEEPMIMIC_CLIPS
+    from services.bench.learning_suite import add_arguments, config_from_args
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    args = parser.parse_args(["--out-dir", "unused", "--skills", "all", "--inits", "rsi"])
+    args.out, args.device, args.torch_threads, args.physics_hz = None, None, None, None
+    config = config_from_args(args)
+    assert config.skills == tuple(DEEPMIMIC_CLIPS) and len(config.skills) == 15
