@@ -144,8 +144,8 @@ def test_eval_and_export_choose_the_checkpoint(evaluated_run, tmp_path, capsys):
 
     out, _ = evaluated_run
     assert main(["eval", str(out), "--episodes", "1"]) == 0
-    assert json.loads(capsys.readouterr().out)["policy"] == f"{out.name} (best.pt)"
+    assert json.loads(capsys.readouterr().out)["checkpoint"] == "best.pt"
     assert main(["eval", str(out), "--episodes", "1", "--checkpoint", "latest"]) == 0
-    assert json.loads(capsys.readouterr().out)["policy"].startswith(f"{out.name} (checkpoint_")
+    assert json.loads(capsys.readouterr().out)["checkpoint"].startswith("checkpoint_")
     assert main(["export", str(out), "--onnx", str(tmp_path / "p.onnx"), "--checkpoint", "best"]) == 0
     assert json.loads(capsys.readouterr().out)["max_abs_diff_vs_checkpoint"] < 1e-4

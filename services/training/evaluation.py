@@ -239,6 +239,8 @@ def evaluate_run(run_dir: str | Path | None, episodes: int = DEFAULT_EPISODES, s
     with threadpool_limits(1, user_api="blas"):  # batch-1 inference: BLAS threads only spin
         result = evaluate_policy(source.policy, env, episodes, seed, pushes, push_impulse, push_duration_s)
     result.update(motion=env.motion.name, policy=source.description)
+    if source.checkpoint is not None:
+        result["checkpoint"] = source.checkpoint
     return result
 
 

@@ -21,6 +21,7 @@ class PolicySource:
     env_config: EnvConfig
     motion: str
     description: str  # what the policy was loaded from, for captions and reports
+    checkpoint: str | None = None  # the run's checkpoint file it was read from (best.pt, checkpoint_N.pt); None for ONNX
 
     def make_env(self) -> ImitationEnv:
         return ImitationEnv(load_motion(self.motion), self.env_config)
@@ -51,5 +52,6 @@ def load_policy_source(run_dir: str | Path | None, onnx: str | Path | None = Non
         config, weights = load_run(run_dir, checkpoint)
         env_config, motion_name = config.env, motion or config.motion
         policy = NumpyPolicy(weights, max_batch=1)
-        description = f"{Path(run_dir).name} ({run_checkpoint(run_dir, checkpoint).name})"
+        description = Path(run_dir).name
+        return PolicySource(policy, env_config, motion_name, description, run_checkpoint(run_dir, checkpoint).name)
     return PolicySource(policy, env_config, motion_name, description)
