@@ -37,6 +37,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from services.completion.config import CompletionConfig
     from services.completion.pipeline import complete_motion
 
     config = CompletionConfig(seconds=args.seconds, height=args.height, sim_width=args.width)
