@@ -21,7 +21,7 @@ from learner.errors import SfvError
 from services.cli import main
 from services.training.config import TrainConfig
 from services.training.driver import Trainer
-from services.training.run_dir import checkpoint_files, read_metrics
+from services.training.run_dir import checkpoint_files, read_metrics, run_checkpoint
 from tests.asi_helpers import ServerProcess
 from tests.redis_fixture import redis_server_with_password  # noqa: F401  (fixture)
 from tests.test_faults_support import REPO, TINY_RUN, TrainProcess, clean_env
@@ -181,10 +181,11 @@ def tamper(path, how: str, marker) -> None:
 
 
 @pytest.mark.parametrize("how", ["flipped byte", "truncated", "code-running pickle"])
-def test_eval_refuses_a_tampered_newest_checkpoint(how, trained_run, tmp_path, capsys):
+def test_eval_refuses_a_tampered_checkpoint_it_reads(how, trained_run, tmp_path, capsys):
     run = tmp_path / "run"
     shutil.copytree(trained_run, run)
-    newest = checkpoint_files(run)[-1]
+    newest = run_checkpoint(run)  # best.pt: the run was evaluated at its end
+    assert newest.name == "best.pt" and checkpoint_files(run)
     marker = tmp_path / "code-ran"
     tamper(newest, how, marker)
     if how == "flipped byte":  # the real command line, once
