@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import mujoco
 
-from actors.arena import FlatFloor
-from actors.humanoid import Humanoid, PhysicsConfig
-from actors.skeleton import LINKS
+from actors.arenas.flat import FlatFloor
+from actors.character.humanoid import Humanoid, PhysicsConfig
+from actors.character.skeleton import LINKS
 
 
 def _pairs(model):

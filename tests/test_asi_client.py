@@ -7,7 +7,7 @@ import grpc
 import numpy as np
 import pytest
 
-from actors.asi_client import ASIClient
+from actors.rollout.asi_client import ASIClient
 from learner.errors import SfvError
 from proto import asi_pb2
 from services.asi.server import serve
@@ -129,7 +129,7 @@ def test_client_imports_nothing_from_services_nor_the_learner_beyond_its_errors(
     from tests.asi_helpers import REPO_ROOT
 
     # The floor's error type is the only thing of learner/ a light gRPC client may pull in (no torch).
-    code = ("import sys, actors.asi_client; "
+    code = ("import sys, actors.rollout.asi_client; "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('services', 'learner', 'torch') and m != 'learner'))")
     result = subprocess.run([sys.executable, "-c", code], cwd=REPO_ROOT, capture_output=True, text=True, timeout=60)
     assert result.returncode == 0, result.stderr

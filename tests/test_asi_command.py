@@ -5,7 +5,7 @@ import sys
 import numpy as np
 import pytest
 
-from actors.asi_client import ASIClient
+from actors.rollout.asi_client import ASIClient
 from learner.errors import SfvError
 from tests.asi_helpers import REPO_ROOT, K, ServerProcess, reference_clip
 from tests.redis_fixture import free_port

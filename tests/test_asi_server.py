@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from grpc_health.v1 import health_pb2, health_pb2_grpc
 
-from actors.asi_client import ASIClient
+from actors.rollout.asi_client import ASIClient
 from learner.errors import SfvError
 from proto import asi_pb2, asi_pb2_grpc
 from services.asi.distribution import InitialStateDistribution, UpdateConfig

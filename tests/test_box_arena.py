@@ -1,4 +1,4 @@
-"""The box arena (actors/box_arena.py): boxes collide with every link through explicit pairs,
+"""The box arena (actors/arenas/boxes.py): boxes collide with every link through explicit pairs,
 and set_scene moves the collision geometry of the one compiled model (a standing body comes
 to rest on the box at its new height, or on the floor when the box is moved away)."""
 from __future__ import annotations
@@ -7,11 +7,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from actors.box_arena import BoxArena
-from actors.features import update_kinematics
-from actors.humanoid import STANDING_ROOT_HEIGHT, Humanoid
-from actors.scene import Box, Scene
-from actors.skeleton import LINK_NAMES, LINKS
+from actors.arenas.boxes import BoxArena
+from actors.character.features import update_kinematics
+from actors.character.humanoid import STANDING_ROOT_HEIGHT, Humanoid
+from actors.arenas.scene import Box, Scene
+from actors.character.skeleton import LINK_NAMES, LINKS
 
 SCENE = Scene((Box("step", along=0.0, height=0.2, size=(0.8, 0.8)),))
 ANKLES = [LINK_NAMES.index("right_ankle"), LINK_NAMES.index("left_ankle")]

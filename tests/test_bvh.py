@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from actors import quaternion as qn
-from actors.bvh import load_bvh_motion, motion_to_bvh_text, read_bvh, write_bvh
-from actors.kinematics import forward_kinematics
-from actors.motion import ReferenceMotion
-from actors.motion_io import load_motion
-from actors.skeleton import JOINT_NAMES, LINK_NAMES, LINKS
+from actors.character import quaternion as qn
+from actors.motion.formats.bvh import load_bvh_motion, motion_to_bvh_text, read_bvh, write_bvh
+from actors.character.kinematics import forward_kinematics
+from actors.motion.reference_motion import ReferenceMotion
+from actors.motion.formats.io import load_motion
+from actors.character.skeleton import JOINT_NAMES, LINK_NAMES, LINKS
 from learner.errors import SfvError
 
 pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")

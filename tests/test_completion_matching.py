@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import torch
 
-from actors import quaternion as qn
-from actors.imitation_env import ImitationEnv
-from actors.motion_io import load_motion
+from actors.character import quaternion as qn
+from actors.envs.imitation_env import ImitationEnv
+from actors.motion.formats.io import load_motion
 from learner.errors import SfvError
 from services.cli import main
 from services.completion.image_panel import draw_image_panel, panel_width

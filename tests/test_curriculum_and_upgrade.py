@@ -3,9 +3,9 @@ written before the DeepMimic-faithful defaults."""
 import numpy as np
 import pytest
 
-from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.initial_states import BufferedStarts, ReferenceStarts
-from actors.vector_env import VectorImitationEnv
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.envs.initial_states import BufferedStarts, ReferenceStarts
+from actors.envs.vector_env import VectorImitationEnv
 from services.training.config import TrainConfig
 from services.training.driver import Trainer
 

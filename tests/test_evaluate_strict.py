@@ -11,12 +11,12 @@ import json
 import numpy as np
 import pytest
 
-from actors import quaternion as qn
-from actors.actions import ActionMapper
-from actors.features import update_kinematics
-from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.motion import ReferenceMotion
-from actors.skeleton import JOINT_IS_SPHERICAL, JOINT_NAMES, LINK_NAMES
+from actors.character import quaternion as qn
+from actors.character.actions import ActionMapper
+from actors.character.features import update_kinematics
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.motion.reference_motion import ReferenceMotion
+from actors.character.skeleton import JOINT_IS_SPHERICAL, JOINT_NAMES, LINK_NAMES
 from services.cli import main
 from services.training.evaluation import (
     DEFAULT_EPISODES,
@@ -192,7 +192,7 @@ def _features(env, edit=None, row=0):
         edit(env.data)
         update_kinematics(env.model, env.data)
     sim = env.features.reward_features_of(env.data)
-    from actors.features import RewardFeatures
+    from actors.character.features import RewardFeatures
 
     return RewardFeatures(sim.values.copy()), env.track.reward_features(row)
 
@@ -323,7 +323,7 @@ def test_bad_flag_values_are_one_line_errors(argv, flag, tmp_path, capsys):
 
 # ------------------------------------------------------------------------------ training
 def test_training_evaluates_when_the_sample_count_crosses_eval_every_and_at_the_end(tmp_path):
-    from actors.motion_io import save_motion
+    from actors.motion.formats.io import save_motion
     from services.training.config import TrainConfig
     from services.training.driver import Trainer
     from services.training.run_dir import read_metrics
@@ -357,8 +357,8 @@ def test_training_evaluates_when_the_sample_count_crosses_eval_every_and_at_the_
 
 def test_training_evaluator_uses_the_current_weights(stand):
     """The evaluator reloads the policy it is given each time (a stale policy would score alike)."""
-    from actors.features import observation_dim
-    from actors.imitation_env import EnvConfig
+    from actors.character.features import observation_dim
+    from actors.envs.imitation_env import EnvConfig
 
     OBS_DIM = observation_dim(len(EnvConfig().reference_obs_steps))
     from services.training.config import TrainConfig
@@ -385,8 +385,8 @@ def test_training_evaluator_uses_the_current_weights(stand):
 def test_blas_threads_are_given_back_after_an_evaluation(stand):
     from threadpoolctl import threadpool_info
 
-    from actors.features import observation_dim
-    from actors.imitation_env import EnvConfig
+    from actors.character.features import observation_dim
+    from actors.envs.imitation_env import EnvConfig
 
     OBS_DIM = observation_dim(len(EnvConfig().reference_obs_steps))
     from services.training.config import TrainConfig

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 import torch
 
-from actors.features import observation_dim
-from actors.imitation_env import EnvConfig
+from actors.character.features import observation_dim
+from actors.envs.imitation_env import EnvConfig
 from learner.checkpoint import checkpoint_path, save_checkpoint
 from learner.onnx_export import OnnxPolicy
 from learner.ppo import PPOLearner

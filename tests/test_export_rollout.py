@@ -6,9 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from actors import quaternion as qn
-from actors.bvh import load_bvh_motion
-from actors.motion_io import load_motion
+from actors.character import quaternion as qn
+from actors.motion.formats.bvh import load_bvh_motion
+from actors.motion.formats.io import load_motion
 from services.cli import main
 from services.training.evaluation import evaluate_policy
 from services.training.policy_source import load_policy_source

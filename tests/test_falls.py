@@ -1,4 +1,4 @@
-"""What counts as a fall (actors/falls.py): DeepMimic's rule, every link but the feet on the
+"""What counts as a fall (actors/envs/falls.py): DeepMimic's rule, every link but the feet on the
 ground ends the episode, with per-clip allowances, and that step earns nothing.
 
 Poses are built here and lowered onto the floor until MuJoCo reports a contact, and the test
@@ -8,10 +8,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from actors import quaternion as qn
-from actors.falls import MIN_ROOT_HEIGHT, FallDetector, allowed_contact_links, clip_key, fall_contact_links
-from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.skeleton import JOINT_NAMES, LINK_NAMES
+from actors.character import quaternion as qn
+from actors.envs.falls import MIN_ROOT_HEIGHT, FallDetector, allowed_contact_links, clip_key, fall_contact_links
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.character.skeleton import JOINT_NAMES, LINK_NAMES
 from tests.conftest import load_clip
 
 X, Y = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])

@@ -13,11 +13,11 @@ import time
 import numpy as np
 import pytest
 
-from actors.asi_client import ASIClient
-from actors.features import observation_dim
-from actors.imitation_env import EnvConfig
-from actors.motion_io import load_motion
-from actors.rollout_worker import RolloutWorker, WorkerSpec
+from actors.rollout.asi_client import ASIClient
+from actors.character.features import observation_dim
+from actors.envs.imitation_env import EnvConfig
+from actors.motion.formats.io import load_motion
+from actors.rollout.worker import RolloutWorker, WorkerSpec
 from learner.checkpoint import latest_checkpoint, load_checkpoint
 from learner.config import PPOConfig
 from learner.errors import SfvError

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from actors.rollout_worker import RolloutWorker
+from actors.rollout.worker import RolloutWorker
 from learner.checkpoint import latest_checkpoint, load_checkpoint
 from services.cli import main
 from services.training.driver import Trainer

@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from actors.handover_starts import HandoverStarts
-from actors.initial_states import BufferedStarts, ReferenceStarts
+from actors.envs.handover_starts import HandoverStarts
+from actors.envs.initial_states import BufferedStarts, ReferenceStarts
 
 
 def test_share_of_handover_starts_and_their_states():
@@ -30,9 +30,9 @@ def test_bad_handover_states_are_refused():
 
 
 def test_worker_draws_handover_starts():
-    from actors.imitation_env import EnvConfig, ImitationEnv
-    from actors.motion_io import load_motion
-    from actors.rollout_worker import RolloutWorker, WorkerSpec
+    from actors.envs.imitation_env import EnvConfig, ImitationEnv
+    from actors.motion.formats.io import load_motion
+    from actors.rollout.worker import RolloutWorker, WorkerSpec
 
     motion = load_motion("deepmimic:walk")
     env = ImitationEnv(motion, EnvConfig())

@@ -5,9 +5,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from actors import quaternion as qn
-from actors.humanoid import Humanoid
-from actors.skeleton import JOINT_NAMES, LINK_NAMES, NUM_ACTUATED_DOF, yup_to_zup
+from actors.character import quaternion as qn
+from actors.character.humanoid import Humanoid
+from actors.character.skeleton import JOINT_NAMES, LINK_NAMES, NUM_ACTUATED_DOF, yup_to_zup
 
 PAPER_MASS_KG = 45.0
 PAPER_HEIGHT_M = 1.62

@@ -6,15 +6,15 @@ import mujoco
 import numpy as np
 import pytest
 
-from actors import quaternion as qn
-from actors.actions import ActionMapper
-from actors.features import update_kinematics
-from actors.humanoid import Humanoid
-from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.kinematics import forward_kinematics
-from actors.reward import RewardConfig
-from actors.skeleton import END_EFFECTOR_LINKS, JOINT_NAMES, LINK_NAMES, NUM_JOINTS
-from actors.state import StateLayout
+from actors.character import quaternion as qn
+from actors.character.actions import ActionMapper
+from actors.character.features import update_kinematics
+from actors.character.humanoid import Humanoid
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.character.kinematics import forward_kinematics
+from actors.envs.modes.sfv.reward import RewardConfig
+from actors.character.skeleton import END_EFFECTOR_LINKS, JOINT_NAMES, LINK_NAMES, NUM_JOINTS
+from actors.character.state import StateLayout
 
 Z = np.array([0.0, 0.0, 1.0])
 
@@ -22,7 +22,7 @@ Z = np.array([0.0, 0.0, 1.0])
 @pytest.fixture(scope="module")
 def walk():
     pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")
-    from actors.motion_io import load_motion
+    from actors.motion.formats.io import load_motion
 
     return load_motion("deepmimic:walk")
 
@@ -30,7 +30,7 @@ def walk():
 @pytest.fixture(scope="module")
 def kick():
     pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")
-    from actors.motion_io import load_motion
+    from actors.motion.formats.io import load_motion
 
     return load_motion("deepmimic:kick")
 

@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 import torch
 
-from actors import quaternion as qn
-from actors.humanoid import Humanoid
-from actors.kinematics import forward_kinematics, revolute_angle
-from actors.motion import MotionPose
-from actors.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, NUM_JOINTS, NUM_LINKS, REVOLUTE_JOINTS, SPHERICAL_JOINTS
-from actors.state import StateLayout
+from actors.character import quaternion as qn
+from actors.character.humanoid import Humanoid
+from actors.character.kinematics import forward_kinematics, revolute_angle
+from actors.motion.reference_motion import MotionPose
+from actors.character.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, NUM_JOINTS, NUM_LINKS, REVOLUTE_JOINTS, SPHERICAL_JOINTS
+from actors.character.state import StateLayout
 from services.reconstruction import quaternion_torch as qt
 from services.reconstruction.kinematics_torch import forward_kinematics_torch, joint_quats_from_params_torch
 

@@ -1,19 +1,19 @@
-"""Left/right mirroring (actors/mirror.py) and the mirrored expert (services/experts)."""
+"""Left/right mirroring (actors/character/mirror.py) and the mirrored expert (services/experts)."""
 from __future__ import annotations
 
 import mujoco
 import numpy as np
 import pytest
 
-from actors import quaternion as qn
-from actors.actions import ActionMapper
-from actors.features import FeatureExtractor, update_kinematics
-from actors.humanoid import Humanoid
-from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.kinematics import forward_kinematics
-from actors.mirror import (LINK_MIRROR, POLAR, QUAT, action_mirror, mirror_motion, mirrored_name, observation_mirror,
+from actors.character import quaternion as qn
+from actors.character.actions import ActionMapper
+from actors.character.features import FeatureExtractor, update_kinematics
+from actors.character.humanoid import Humanoid
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.character.kinematics import forward_kinematics
+from actors.character.mirror import (LINK_MIRROR, POLAR, QUAT, action_mirror, mirror_motion, mirrored_name, observation_mirror,
                            state_mirror)
-from actors.skeleton import JOINT_IS_SPHERICAL, LINKS, OFFSETS
+from actors.character.skeleton import JOINT_IS_SPHERICAL, LINKS, OFFSETS
 from learner.errors import SfvError
 
 
@@ -133,8 +133,8 @@ def test_mirrored_expert_acts_as_the_mirrored_policy(walk_clip, humanoid):
 
 
 def test_a_motion_file_name_with_the_mirror_suffix_loads_the_file_mirrored(walk_clip, tmp_path):
-    from actors.motion_bend import bend_motion
-    from actors.motion_io import load_motion, save_motion
+    from actors.motion.bend import bend_motion
+    from actors.motion.formats.io import load_motion, save_motion
 
     path = save_motion(bend_motion(walk_clip, 0.5, 2.0, name="walk_left"), tmp_path / "walk_left.npz")
     mirrored = load_motion(f"{path}_mirror")

@@ -3,8 +3,8 @@ heading relative to its travel, and turns by yaw_rate x seconds."""
 import numpy as np
 import pytest
 
-from actors import quaternion as qn
-from actors.motion_bend import bend_motion
+from actors.character import quaternion as qn
+from actors.motion.bend import bend_motion
 from tests.conftest import load_clip
 
 
@@ -44,7 +44,7 @@ def test_a_bad_duration_is_an_error():
 def test_cli_writes_the_bent_clip_and_names_a_bad_flag(tmp_path, capsys):
     import json
 
-    from actors.motion_io import load_motion
+    from actors.motion.formats.io import load_motion
     from services.cli import main as sfv_main
 
     load_clip("walk")  # skips without pybullet_data

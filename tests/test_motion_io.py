@@ -8,12 +8,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from actors import quaternion as qn
-from actors.humanoid import Humanoid
-from actors.motion import MotionFormatError, ReferenceMotion
-from actors.motion_io import DEEPMIMIC_CLIPS, DEEPMIMIC_COLUMNS, load_motion, save_motion
-from actors.skeleton import JOINT_IS_SPHERICAL, NUM_JOINTS, yup_to_zup
-from actors.state import StateLayout
+from actors.character import quaternion as qn
+from actors.character.humanoid import Humanoid
+from actors.motion.reference_motion import MotionFormatError, ReferenceMotion
+from actors.motion.formats.io import DEEPMIMIC_CLIPS, DEEPMIMIC_COLUMNS, load_motion, save_motion
+from actors.character.skeleton import JOINT_IS_SPHERICAL, NUM_JOINTS, yup_to_zup
+from actors.character.state import StateLayout
 from services.cli import main as sfv_main
 
 REPO = Path(__file__).resolve().parents[1]

@@ -10,12 +10,12 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from actors.humanoid import Humanoid
-from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.motion import MotionFormatError, ReferenceMotion
-from actors.motion_io import DEEPMIMIC_COLUMNS, load_motion
-from actors.reward import RewardConfig
-from actors.skeleton import NUM_JOINTS
+from actors.character.humanoid import Humanoid
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.motion.reference_motion import MotionFormatError, ReferenceMotion
+from actors.motion.formats.io import DEEPMIMIC_COLUMNS, load_motion
+from actors.envs.modes.sfv.reward import RewardConfig
+from actors.character.skeleton import NUM_JOINTS
 
 
 @pytest.fixture(scope="module", autouse=True)

@@ -85,7 +85,7 @@ def random_expert(tmp_path_factory):
 
 
 def test_recorder_rolls_a_tiny_expert_out_with_noise(random_expert, tmp_path):
-    from actors.actions import ActionMapper
+    from actors.character.actions import ActionMapper
     from services.motor.recorder import RecordConfig, record_clip
 
     config = RecordConfig(steps_per_clip=130, episode_steps=40, chunk_steps=60, noise_std=0.1)
@@ -113,9 +113,9 @@ def test_recorder_rolls_a_tiny_expert_out_with_noise(random_expert, tmp_path):
 
 def test_future_features_of_a_character_on_its_reference(shared_humanoid):
     """On the reference itself (a standing clip) the pose differences are zero and the future roots sit at the root."""
-    from actors.future_reference import POSE_WIDTH, STEP_WIDTH, FutureReference
-    from actors.imitation_env import EnvConfig, ImitationEnv
-    from actors.proprioception import PROPRIO_DIM, proprioception_from_observation
+    from actors.envs.tasks.future_reference import POSE_WIDTH, STEP_WIDTH, FutureReference
+    from actors.envs.imitation_env import EnvConfig, ImitationEnv
+    from actors.envs.tasks.proprioception import PROPRIO_DIM, proprioception_from_observation
 
     env = ImitationEnv(stand_motion(), EnvConfig(reference_obs_steps=(), horizon_s=1.0), shared_humanoid)
     obs, _ = env.reset(options={"init": "fsi"})
@@ -127,7 +127,7 @@ def test_future_features_of_a_character_on_its_reference(shared_humanoid):
     assert np.abs(steps[:, :POSE_WIDTH]).max() < 1e-6
     assert np.abs(steps[:, POSE_WIDTH:POSE_WIDTH + 3]).max() < 1e-6 and steps[:, POSE_WIDTH + 3] == pytest.approx(np.ones(5))
     env.data.qpos[0] += 0.5  # the character half a metre ahead (along world x) of its reference
-    from actors.features import update_kinematics
+    from actors.character.features import update_kinematics
 
     update_kinematics(env.model, env.data)
     future(env.data, env.row, env.root_sync.offset, proprio, features)

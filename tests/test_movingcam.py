@@ -3,10 +3,10 @@ preset, bad motions, root-free observation, and single env = vector env."""
 import numpy as np
 import pytest
 
-from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.motion import MotionFormatError
-from actors.movingcam_termination import RULES, MovingcamTermination, MovingcamTerminationConfig
-from actors.reward_movingcam import MovingcamReward, MovingcamRewardConfig
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.motion.reference_motion import MotionFormatError
+from actors.envs.modes.movingcam.termination import RULES, MovingcamTermination, MovingcamTerminationConfig
+from actors.envs.modes.movingcam.reward import MovingcamReward, MovingcamRewardConfig
 
 MOVINGCAM = EnvConfig(mode="movingcam", horizon_s=2.0)
 
@@ -14,7 +14,7 @@ MOVINGCAM = EnvConfig(mode="movingcam", horizon_s=2.0)
 @pytest.fixture(scope="module")
 def walk():
     pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")
-    from actors.motion_io import load_motion
+    from actors.motion.formats.io import load_motion
 
     return load_motion("deepmimic:walk")
 
@@ -26,7 +26,7 @@ def env(walk):
 
 def _score(env, sim_values, tilt, sim_contacts, torque, rows, config=None):
     """Rewards and terms of hand-made simulated features against the env's reference rows."""
-    from actors.features import RewardFeatures
+    from actors.character.features import RewardFeatures
 
     b = len(rows)
     targets = env.movingcam.targets
@@ -89,8 +89,8 @@ def test_contact_term_counts_the_xor_of_simulated_and_estimated_flags(env):
 
 
 def test_hand_flags_join_the_contact_term(walk):
-    from actors.clip_cues import clip_cues
-    from actors.motion import ReferenceMotion
+    from actors.envs.modes.movingcam.clip_cues import clip_cues
+    from actors.motion.reference_motion import ReferenceMotion
 
     cues = clip_cues(walk)
     hands = np.zeros((walk.num_frames, 2), dtype=bool)
@@ -100,7 +100,7 @@ def test_hand_flags_join_the_contact_term(walk):
     env = ImitationEnv(motion, MOVINGCAM)
     targets = env.movingcam.targets
     assert targets.has_hands and targets.contacts.shape[1] == 4
-    from actors.skeleton import LINK_NAMES
+    from actors.character.skeleton import LINK_NAMES
 
     assert [LINK_NAMES[i] for i in targets.contact_links] == ["right_ankle", "left_ankle", "right_wrist", "left_wrist"]
 
@@ -121,7 +121,7 @@ def test_each_termination_rule_fires_alone():
 
 
 def test_env_ends_on_the_orientation_hint_and_on_an_obstacle(walk):
-    from actors.motion import ReferenceMotion
+    from actors.motion.reference_motion import ReferenceMotion
 
     extras = {"orientation_hint": np.full(walk.num_frames, 1.5), "contacts": np.ones((walk.num_frames, 2), dtype=bool)}
     leaning = ReferenceMotion(walk.name, walk.frame_times, walk.root_pos, walk.root_rot, walk.joint_rot, walk.loop, extras)
@@ -142,7 +142,7 @@ def test_env_ends_on_the_orientation_hint_and_on_an_obstacle(walk):
 def test_root_path_does_not_reach_the_policy_or_the_reward(walk):
     """The clip and its root-free copy (same cues) give the same observations and rewards
     (once started with the same root velocity: the root-free copy's reference has none)."""
-    from actors.clip_cues import clip_cues
+    from actors.envs.modes.movingcam.clip_cues import clip_cues
     from services.reconstruction.root_free import make_root_free
 
     free = make_root_free(walk)
@@ -163,7 +163,7 @@ def test_root_path_does_not_reach_the_policy_or_the_reward(walk):
 
 
 def test_root_free_motion_without_cues_is_a_one_line_error_naming_the_file(walk, tmp_path, capsys):
-    from actors.motion_io import load_motion, save_motion
+    from actors.motion.formats.io import load_motion, save_motion
     from services.cli import main
     from services.reconstruction.root_free import make_root_free
 
@@ -192,8 +192,8 @@ def test_reward_preset_selects_the_mode_with_residual_targets():
 
 
 def test_vector_env_and_single_env_give_identical_rewards(walk):
-    from actors.initial_states import BufferedStarts, ReferenceStarts
-    from actors.vector_env import VectorImitationEnv
+    from actors.envs.initial_states import BufferedStarts, ReferenceStarts
+    from actors.envs.vector_env import VectorImitationEnv
 
     venv = VectorImitationEnv(walk, MOVINGCAM, num_envs=3, starts=BufferedStarts(ReferenceStarts("rsi", np.random.default_rng(3)), batch=3), seed=5)
     venv.reset()

@@ -29,8 +29,8 @@ def test_path_figures_measure_a_turned_and_shortened_path():
 
 def test_synthetic_motion_is_root_free_with_the_clean_clips_cues(tmp_path):
     pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")
-    from actors.clip_cues import clip_cues
-    from actors.motion_io import load_motion, root_is_free
+    from actors.envs.modes.movingcam.clip_cues import clip_cues
+    from actors.motion.formats.io import load_motion, root_is_free
 
     clean = load_motion("deepmimic:walk")
     motion = load_motion(str(bench.prepare("deepmimic:walk", 0.05, 0, tmp_path)))

@@ -50,9 +50,9 @@ def test_two_tiny_experts_distilled_then_one_task_iteration(tmp_path, capsys):
 
 def test_latent_actions_drive_the_character_with_the_decoder(tmp_path):
     """The latent env's targets are the decoder's, clipped to the joint limits, batched over envs."""
-    from actors.actions import ActionMapper
-    from actors.tasks.config import TaskEnvConfig
-    from actors.tasks.vector_task_env import VectorTaskEnv
+    from actors.character.actions import ActionMapper
+    from actors.envs.tasks.config import TaskEnvConfig
+    from actors.envs.tasks.vector_task_env import VectorTaskEnv
     from learner.motor_decoder import LatentDecoder, save_decoder_npz
 
     rng = np.random.default_rng(0)

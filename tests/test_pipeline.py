@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from actors.motion_io import load_motion
+from actors.motion.formats.io import load_motion
 from services.training.run_dir import read_metrics
 
 pytestmark = pytest.mark.integration

@@ -26,7 +26,7 @@ def test_scene_and_resume_need_the_moving_camera(tmp_path, capsys):
 
 
 def test_a_box_outside_its_domain_stops_the_pipeline_before_the_video_is_read(tmp_path, capsys):
-    pytest.importorskip("actors.scene")
+    pytest.importorskip("actors.arenas.scene")
     scene = tmp_path / "boxes.yaml"
     scene.write_text(BAD_BOX)
     video = tmp_path / "missing.mp4"  # never opened: the scene file is read first
@@ -37,7 +37,7 @@ def test_a_box_outside_its_domain_stops_the_pipeline_before_the_video_is_read(tm
 
 
 def test_not_a_video_is_one_line_in_moving_mode(tmp_path, capsys):
-    pytest.importorskip("actors.movingcam")
+    pytest.importorskip("actors.envs.modes.movingcam.tracking")
     bad = tmp_path / "clip.mp4"
     bad.write_text("not a video")
     assert main(["pipeline", str(bad), "--out", str(tmp_path / "o"), "--camera", "moving"]) == 2
@@ -46,7 +46,7 @@ def test_not_a_video_is_one_line_in_moving_mode(tmp_path, capsys):
 
 
 def _root_free_walk(tmp_path, keep_cues: bool):
-    from actors.motion_io import load_motion, save_motion
+    from actors.motion.formats.io import load_motion, save_motion
 
     motion = load_motion("deepmimic:walk")
     motion.loop = False
@@ -58,8 +58,8 @@ def _root_free_walk(tmp_path, keep_cues: bool):
 
 
 def test_a_root_free_motion_without_cues_is_refused_before_training(tmp_path):
-    pytest.importorskip("actors.movingcam")
-    from actors.imitation_env import EnvConfig
+    pytest.importorskip("actors.envs.modes.movingcam.tracking")
+    from actors.envs.imitation_env import EnvConfig
     from learner.errors import SfvError
     from services.scene_fit import scene_contract
     from services.scene_fit.stage import check_inputs
@@ -70,9 +70,9 @@ def test_a_root_free_motion_without_cues_is_refused_before_training(tmp_path):
 
 
 def test_a_box_over_the_start_pose_is_refused_before_training(tmp_path):
-    pytest.importorskip("actors.scene")
-    pytest.importorskip("actors.movingcam")
-    from actors.imitation_env import EnvConfig
+    pytest.importorskip("actors.arenas.scene")
+    pytest.importorskip("actors.envs.modes.movingcam.tracking")
+    from actors.envs.imitation_env import EnvConfig
     from learner.errors import SfvError
     from services.scene_fit import scene_contract
     from services.scene_fit.stage import check_inputs

@@ -3,8 +3,8 @@ two people (follow the one who leaves), a frame range, and a camera that pans an
 import numpy as np
 import pytest
 
-from actors.motion import ReferenceMotion
-from actors.motion_io import load_motion, root_is_free, save_motion
+from actors.motion.reference_motion import ReferenceMotion
+from actors.motion.formats.io import load_motion, root_is_free, save_motion
 from learner.errors import SfvError
 from services.cli import main
 from services.pose.video import read_frames

@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 import torch
 
-from actors import quaternion as qn
-from actors.imitation_env import ImitationEnv
-from actors.kinematics import revolute_angle
-from actors.motion_io import load_motion, save_motion
-from actors.skeleton import JOINT_IS_SPHERICAL
+from actors.character import quaternion as qn
+from actors.envs.imitation_env import ImitationEnv
+from actors.character.kinematics import revolute_angle
+from actors.motion.formats.io import load_motion, save_motion
+from actors.character.skeleton import JOINT_IS_SPHERICAL
 from learner.errors import SfvError
 from services.reconstruction import JOINT_KEYPOINTS, ReconstructionConfig, reconstruct_on_ray, reconstruct_track
 from services.reconstruction.body import REVOLUTE_LIMITS, SPHERICAL_LIMITS, body_points

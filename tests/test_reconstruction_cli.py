@@ -10,7 +10,7 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from actors.motion_io import load_motion, save_motion
+from actors.motion.formats.io import load_motion, save_motion
 from learner.errors import SfvError
 from services.cli import main
 from services.pose.video import read_frames
@@ -127,7 +127,7 @@ def test_render_motion_needs_a_reconstructed_motion(tmp_path, capsys):
     clip = make_clip(frames=4)
     video = write_clip(tmp_path / "clip.avi", [np.zeros((480, 640, 3), np.uint8)] * 4)
     plain = tmp_path / "plain.npz"
-    from actors.motion import ReferenceMotion
+    from actors.motion.reference_motion import ReferenceMotion
 
     save_motion(ReferenceMotion("plain", np.arange(4) / 30.0, clip.root_pos, clip.root_quat, clip.joint_quats), plain)
     assert main(["render-motion", str(plain), "--video", str(video), "--out", str(tmp_path / "out.mp4")]) == 2

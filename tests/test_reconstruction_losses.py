@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 import torch
 
-from actors import quaternion as qn
+from actors.character import quaternion as qn
 from services.reconstruction.batched_kinematics import link_frames, quat_to_matrix
 from services.reconstruction.body import REVOLUTE_LIMITS, SPHERICAL_LIMITS, PoseParams, body_points
 from services.reconstruction.camera import (

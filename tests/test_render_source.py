@@ -39,7 +39,7 @@ def test_broken_source_writes_nothing(walk_clip, tmp_path, capsys):
     bvh = tmp_path / "walk.bvh"
     bvh.write_text(foreign_bvh_text(walk_clip, MIXAMO_NAMES, "y_up").replace("mixamorig:", "bone_"))
     npz, video = tmp_path / "walk.npz", tmp_path / "side.mp4"
-    from actors.motion_io import save_motion
+    from actors.motion.formats.io import save_motion
 
     save_motion(walk_clip, npz)
     assert main(["render-motion", str(npz), "--source", str(bvh), "--out", str(video)]) == 2

@@ -7,12 +7,12 @@ Expected targets are built here from the reference's quaternions and the skeleto
 import numpy as np
 import pytest
 
-from actors import quaternion as qn
-from actors.actions import ActionMapper
-from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.initial_states import BufferedStarts, ReferenceStarts
-from actors.skeleton import JOINT_IS_SPHERICAL, JOINT_LINKS, JOINT_NAMES, LINKS, joint_limits_zup
-from actors.vector_env import VectorImitationEnv
+from actors.character import quaternion as qn
+from actors.character.actions import ActionMapper
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.envs.initial_states import BufferedStarts, ReferenceStarts
+from actors.character.skeleton import JOINT_IS_SPHERICAL, JOINT_LINKS, JOINT_NAMES, LINKS, joint_limits_zup
+from actors.envs.vector_env import VectorImitationEnv
 
 BALL = [n for n, s in zip(JOINT_NAMES, JOINT_IS_SPHERICAL) if s]
 HINGE = [n for n, s in zip(JOINT_NAMES, JOINT_IS_SPHERICAL) if not s]

@@ -12,15 +12,15 @@ import json
 import numpy as np
 import pytest
 
-from actors import quaternion as qn
-from actors.bvh import motion_to_bvh_text, write_bvh
-from actors.bvh_import import import_bvh
-from actors.foot_contact import sole_heights
-from actors.kinematics import forward_kinematics
-from actors.motion import ReferenceMotion
-from actors.motion_io import load_motion
-from actors.retarget import RetargetOptions
-from actors.skeleton import HINGE_AXIS, JOINT_NAMES
+from actors.character import quaternion as qn
+from actors.motion.formats.bvh import motion_to_bvh_text, write_bvh
+from actors.motion.formats.bvh_import import import_bvh
+from actors.character.foot_contact import sole_heights
+from actors.character.kinematics import forward_kinematics
+from actors.motion.reference_motion import ReferenceMotion
+from actors.motion.formats.io import load_motion
+from actors.motion.formats.retarget import RetargetOptions
+from actors.character.skeleton import HINGE_AXIS, JOINT_NAMES
 from services.cli import main
 from tests.foreign_rig import (
     CGSPEED_CMU_NAMES,

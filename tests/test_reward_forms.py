@@ -14,12 +14,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from actors import quaternion as qn
-from actors.features import RewardFeatures, update_kinematics
-from actors.humanoid import Humanoid
-from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.reward import ImitationReward, RewardConfig
-from actors.skeleton import END_EFFECTOR_LINKS, JOINT_IS_SPHERICAL, JOINT_NAMES
+from actors.character import quaternion as qn
+from actors.character.features import RewardFeatures, update_kinematics
+from actors.character.humanoid import Humanoid
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.envs.modes.sfv.reward import ImitationReward, RewardConfig
+from actors.character.skeleton import END_EFFECTOR_LINKS, JOINT_IS_SPHERICAL, JOINT_NAMES
 from tests.test_imitation_env import dof_index, qpos_index, terms_after  # noqa: F401  (helpers, not tests)
 
 Z = np.array([0.0, 0.0, 1.0])

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from actors.rigs import detect_rig, load_rig_map, resolve_rig
+from actors.motion.formats.rigs import detect_rig, load_rig_map, resolve_rig
 from learner.errors import SfvError
 
 SIDES = (("Left", "l"), ("Right", "r"))

@@ -1,5 +1,5 @@
 """The reference's horizontal root re-synchronised to the character's at each new cycle of a
-looped clip (actors/root_sync.py, DeepMimic's SyncKinCharNewCycle).
+looped clip (actors/envs/root_sync.py, DeepMimic's SyncKinCharNewCycle).
 
 Each step starts from the reference's own state moved 0.3 m / -0.1 m on the ground (from
 step 5 on), so the character stays upright but lags the reference; the root term is then
@@ -9,10 +9,10 @@ not) as DeepMimic would.
 import numpy as np
 import pytest
 
-from actors.features import update_kinematics
-from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.initial_states import BufferedStarts, ReferenceStarts
-from actors.vector_env import VectorImitationEnv
+from actors.character.features import update_kinematics
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.envs.initial_states import BufferedStarts, ReferenceStarts
+from actors.envs.vector_env import VectorImitationEnv
 from tests.conftest import load_clip
 
 SHIFT = np.array([0.3, -0.1])  # how far the character lags the reference, metres
@@ -144,7 +144,7 @@ def test_vector_env_syncs_each_env_like_the_single_env(clips, humanoid):
 
 
 def test_the_papers_com_position_term_follows_the_synced_reference(clips, humanoid):
-    from actors.reward import RewardConfig
+    from actors.envs.modes.sfv.reward import RewardConfig
 
     env = ImitationEnv(clips["walk"], EnvConfig(horizon_s=2.0, reward=RewardConfig.sfv_paper()), humanoid)
     cycle = env.track.start_steps

@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from actors.features import observation_dim
-from actors.humanoid import Humanoid
-from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.initial_states import BufferedStarts, ReferenceStarts
-from actors.motion_io import load_motion
-from actors.vector_env import VectorImitationEnv
+from actors.character.features import observation_dim
+from actors.character.humanoid import Humanoid
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.envs.initial_states import BufferedStarts, ReferenceStarts
+from actors.motion.formats.io import load_motion
+from actors.envs.vector_env import VectorImitationEnv
 
 SCENES = Path(__file__).resolve().parents[1] / "bench" / "scenes"
 

@@ -1,4 +1,4 @@
-"""Scene files (actors/scene.py): the example loads, every fault is one line naming the file
+"""Scene files (actors/arenas/scene.py): the example loads, every fault is one line naming the file
 and the box, and the scene vector round-trips."""
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from actors.motion_io import load_motion
-from actors.scene import SceneError, load_scene
+from actors.motion.formats.io import load_motion
+from actors.arenas.scene import SceneError, load_scene
 
 REPO = Path(__file__).resolve().parents[1]
 CLIP = REPO / "bench" / "scenes" / "box_jump.npz"
@@ -88,7 +88,7 @@ def test_missing_and_unparsable_files_are_one_line(tmp_path):
 def test_the_scene_flag_is_absolute_so_a_resume_from_elsewhere_matches(tmp_path, monkeypatch):
     import argparse
 
-    from actors.imitation_env import EnvConfig
+    from actors.envs.imitation_env import EnvConfig
     from services.training import flags
     from services.training.config import TrainConfig
 

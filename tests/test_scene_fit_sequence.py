@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from actors.motion_io import load_motion
+from actors.motion.formats.io import load_motion
 from services.scene_fit.final_rollout import final_rollout
 from services.scene_fit.handover import WindowRollouts
 from services.scene_fit.sequence import train_windows
@@ -70,8 +70,8 @@ def test_final_rollout_chains_the_windows_over_the_clip(trained):
 
 
 def test_outputs_are_written_whole(trained, tmp_path):
-    from actors.humanoid import Humanoid
-    from actors.state import StateLayout
+    from actors.character.humanoid import Humanoid
+    from actors.character.state import StateLayout
     from services.scene_fit.outputs import write_outputs
 
     out, clip, windows, runs = trained

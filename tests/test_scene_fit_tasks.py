@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from actors.motion_io import load_motion
+from actors.motion.formats.io import load_motion
 from services.scene_fit import scene_contract
 from services.scene_fit.fit_tasks import run_fit_stages
 from services.scene_fit.sequence import train_windows
@@ -20,7 +20,7 @@ SCENES = Path(__file__).resolve().parents[1] / "bench" / "scenes"
 
 @pytest.fixture(scope="module")
 def box_windows(tmp_path_factory):
-    from actors.imitation_env import EnvConfig
+    from actors.envs.imitation_env import EnvConfig
 
     base = TrainConfig(motion="", out="", workers=1, envs_per_worker=2, init="rsi", samples=128, runner="in_process",
                        eval_every=0, plot_every=0, torch_threads=1)

@@ -4,11 +4,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-scene_module = pytest.importorskip("actors.scene")
+scene_module = pytest.importorskip("actors.arenas.scene")
 
 
 def test_boxes_stay_put_in_the_world_and_observe_the_same(tmp_path):
-    from actors.motion_io import load_motion
+    from actors.motion.formats.io import load_motion
     from services.scene_fit import scene_contract
     from services.scene_fit.window_motion import window_motion
     from services.scene_fit.window_scene import window_scene

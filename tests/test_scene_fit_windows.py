@@ -49,7 +49,7 @@ def test_proportional_contact_frames_keep_order_inside_the_clip():
 
 
 def test_window_motion_cuts_frames_and_extras_and_moves_the_root():
-    from actors.motion_io import load_motion
+    from actors.motion.formats.io import load_motion
 
     motion = load_motion("deepmimic:walk")
     motion.extras["contacts"] = np.arange(motion.num_frames * 2).reshape(-1, 2) % 2 == 0
@@ -66,7 +66,7 @@ def test_window_motion_cuts_frames_and_extras_and_moves_the_root():
 
 
 def test_control_steps_follow_time_not_clip_frames():
-    from actors.motion import ReferenceMotion
+    from actors.motion.reference_motion import ReferenceMotion
     from services.scene_fit.window_motion import clip_frame, control_steps
     from services.scene_fit.windows import Window
 

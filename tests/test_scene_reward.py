@@ -1,4 +1,4 @@
-"""002's scene reward (actors/scene_reward.py, eq. 10-12): each term is 1 at a perfect contact,
+"""002's scene reward (actors/envs/scene_reward.py, eq. 10-12): each term is 1 at a perfect contact,
 alignment and landing, falls with the distance, and is 0 where the reference touches no box;
 our r_height term pays for the reference's centre-of-mass height while on a box."""
 from __future__ import annotations
@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from actors.motion_io import load_motion
-from actors.scene import Box, Scene, SceneFrame
-from actors.scene_reward import CONTACT_LIFT, GRAVITY, SceneContacts, SceneReward, SceneRewardConfig
+from actors.motion.formats.io import load_motion
+from actors.arenas.scene import Box, Scene, SceneFrame
+from actors.envs.scene_reward import CONTACT_LIFT, GRAVITY, SceneContacts, SceneReward, SceneRewardConfig
 
 SCENE = Scene((Box("step", along=1.0, height=0.3, size=(0.8, 0.6), lateral=0.2),))
 FRAME = SceneFrame(origin=(0.5, -1.0), yaw=np.pi / 2)  # heading +y: along maps to world y
@@ -92,7 +92,7 @@ def test_no_box_contact_no_scene_reward_and_a_batch_matches_rows():
 def test_the_box_clip_reference_earns_the_scene_reward_on_the_true_box():
     """Playing the synthetic clip's own reference on its true box: near-full r_dist and r_align
     on the box, r_com during the flight; 0.3 m too high a box lowers r_dist."""
-    from actors.imitation_env import EnvConfig, ImitationEnv
+    from actors.envs.imitation_env import EnvConfig, ImitationEnv
 
     scenes = Path(__file__).resolve().parents[1] / "bench" / "scenes"
     env = ImitationEnv(load_motion(str(scenes / "box_jump.npz")), EnvConfig(scene=str(scenes / "box_jump_truth.yaml"), scene_randomise=False))
@@ -129,8 +129,8 @@ def test_height_pays_the_reference_centre_of_mass_height_on_a_box_only():
 
 
 def test_box_contacts_naming_a_missing_box_is_one_line():
-    from actors.imitation_env import EnvConfig, ImitationEnv
-    from actors.scene import SceneError
+    from actors.envs.imitation_env import EnvConfig, ImitationEnv
+    from actors.arenas.scene import SceneError
 
     scenes = Path(__file__).resolve().parents[1] / "bench" / "scenes"
     motion = load_motion(str(scenes / "box_jump.npz"))

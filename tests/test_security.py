@@ -15,7 +15,7 @@ import sys
 import pytest
 import torch
 
-from actors.asi_client import ASIClient
+from actors.rollout.asi_client import ASIClient
 from learner.checkpoint import load_checkpoint
 from learner.errors import SfvError
 from services.cli import main

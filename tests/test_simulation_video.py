@@ -5,9 +5,9 @@ from __future__ import annotations
 import imageio.v2 as imageio
 import numpy as np
 
-from actors.humanoid import Humanoid
-from actors.motion_io import load_motion
-from actors.state import StateLayout
+from actors.character.humanoid import Humanoid
+from actors.motion.formats.io import load_motion
+from actors.character.state import StateLayout
 from services.render.simulation_video import render_simulation_video
 
 

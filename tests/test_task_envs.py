@@ -2,14 +2,14 @@
 import numpy as np
 import pytest
 
-from actors.tasks.config import TaskEnvConfig
-from actors.tasks.go_to import GoToTask
+from actors.envs.tasks.config import TaskEnvConfig
+from actors.envs.tasks.go_to import GoToTask
 
 pytest.importorskip("pybullet_data", reason="task episodes start from the DeepMimic walk")
 
 
 def make_env(task="go_to", num_envs=2, **kw):
-    from actors.tasks.vector_task_env import VectorTaskEnv
+    from actors.envs.tasks.vector_task_env import VectorTaskEnv
 
     return VectorTaskEnv(TaskEnvConfig(task=task, action="joint", **kw), num_envs, seed=3)
 
@@ -22,7 +22,7 @@ def hold_actions(env):
 
 @pytest.mark.parametrize("task, width", [("go_to", 6), ("push_box", 11)])
 def test_observation_is_proprioception_then_task_features(task, width):
-    from actors.features import OBS_DIM, FeatureExtractor
+    from actors.character.features import OBS_DIM, FeatureExtractor
 
     env = make_env(task)
     obs = env.reset()
@@ -98,7 +98,7 @@ def test_a_body_on_the_floor_is_a_fall_and_ends_the_episode():
 
 
 def test_task_worker_sample_matches_the_rollout_contract():
-    from actors.tasks.task_worker import TaskRolloutWorker, TaskWorkerSpec
+    from actors.rollout.task_worker import TaskRolloutWorker, TaskWorkerSpec
     from learner.config import PPOConfig
     from learner.ppo import PPOLearner
 

@@ -153,7 +153,7 @@ def test_a_mask_of_the_wrong_shape_or_selecting_nothing_is_refused():
 
 # -------------------------------------------------------------------- one training iteration
 def test_training_with_adaptive_sampling_logs_its_coverage(tmp_path):
-    from actors.imitation_env import EnvConfig
+    from actors.envs.imitation_env import EnvConfig
     from services.training.config import TrainConfig
     from services.training.driver import Trainer
 

@@ -3,11 +3,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from actors.humanoid import Humanoid
-from actors.imitation_env import EnvConfig
-from actors.initial_states import BufferedStarts, InitialStates, ReferenceStarts
-from actors.state import StateLayout
-from actors.vector_env import VectorImitationEnv
+from actors.character.humanoid import Humanoid
+from actors.envs.imitation_env import EnvConfig
+from actors.envs.initial_states import BufferedStarts, InitialStates, ReferenceStarts
+from actors.character.state import StateLayout
+from actors.envs.vector_env import VectorImitationEnv
 
 HORIZON_S = 0.3  # 9 control steps per looped episode
 HORIZON_STEPS = 9
@@ -17,7 +17,7 @@ GAMMA = 0.9
 @pytest.fixture(scope="module")
 def walk():
     pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")
-    from actors.motion_io import load_motion
+    from actors.motion.formats.io import load_motion
 
     return load_motion("deepmimic:walk")
 

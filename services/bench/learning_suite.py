@@ -156,7 +156,7 @@ def _names(flag: str, text: str) -> list[str]:
 
 def _skill(text: str) -> tuple[str, str]:
     """A skill flag entry -> (motion for TrainConfig, short clip name); validates by loading it."""
-    from actors.motion_io import DEEPMIMIC_CLIPS, load_motion
+    from actors.motion.formats.io import DEEPMIMIC_CLIPS, load_motion
 
     motion = f"deepmimic:{text}" if text in DEEPMIMIC_CLIPS else text
     try:
@@ -222,7 +222,7 @@ def cells(config: LearningConfig) -> list[Cell]:
 
 
 def train_config(config: LearningConfig, cell: Cell):
-    from actors.humanoid import PhysicsConfig
+    from actors.character.humanoid import PhysicsConfig
     from services.training.config import TrainConfig
 
     train = TrainConfig(motion=cell.skill, out=str(run_dir_of(config, cell)), workers=config.workers,
@@ -613,7 +613,7 @@ def command_line(config: LearningConfig) -> str:
 
 
 def _non_default_physics_hz(config: LearningConfig) -> float | None:
-    from actors.humanoid import PhysicsConfig
+    from actors.character.humanoid import PhysicsConfig
 
     return None if config.physics_hz in (None, PhysicsConfig().physics_hz) else config.physics_hz
 

@@ -19,7 +19,7 @@ VIDEO_FILE = "simulated.mp4"
 
 
 def _base_config(args, scene_path):
-    from actors.imitation_env import EnvConfig
+    from actors.envs.imitation_env import EnvConfig
     from services.scene_fit import scene_contract
     from services.scene_fit.windows import WINDOW_GAMMA
     from services.training.config import TrainConfig
@@ -46,7 +46,7 @@ def moving_camera_motion(track, motion):
 
 
 def _reconstruct(args, out: Path):
-    from actors.motion_io import save_motion
+    from actors.motion.formats.io import save_motion
     from services.pose import estimate_video
     from services.reconstruction import ReconstructionConfig, reconstruct_on_ray
 
@@ -85,7 +85,7 @@ def run_moving(args) -> int:
     finally:
         if started_ray:
             ray.shutdown()
-    from actors.motion_io import load_motion
+    from actors.motion.formats.io import load_motion
     from services.reconstruction.video_extras import video_start_frame
     from services.scene_fit.outputs import render_simulation
 

@@ -61,7 +61,7 @@ def run_static(args) -> int:
 
     import ray
 
-    from actors.motion_io import save_motion
+    from actors.motion.formats.io import save_motion
     from learner.errors import SfvError
     from services.pose import estimate_video
     from services.pose.video import probe_video

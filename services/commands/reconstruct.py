@@ -50,7 +50,7 @@ def _check_args(args: argparse.Namespace) -> None:
 def run_reconstruct(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from actors.motion_io import save_motion
+    from actors.motion.formats.io import save_motion
     from services.pose import PoseTrack, estimate_video
     from services.pose.camera_path import camera_path, decide_camera
     from services.pose.subject import crop_to_seen

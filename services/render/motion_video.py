@@ -11,9 +11,9 @@ import cv2
 import mujoco
 import numpy as np
 
-from actors.humanoid import Humanoid
-from actors.motion import ReferenceMotion
-from actors.state import StateLayout
+from actors.character.humanoid import Humanoid
+from actors.motion.reference_motion import ReferenceMotion
+from actors.character.state import StateLayout
 from learner.errors import SfvError
 from services.reconstruction.keypoints import JOINT_KEYPOINTS
 from services.reconstruction.video_extras import video_start_frame

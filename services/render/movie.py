@@ -15,7 +15,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from actors.imitation_env import ImitationEnv
+from actors.envs.imitation_env import ImitationEnv
 from learner.errors import SfvError
 from services.export.rollout import episode_limit, episode_steps
 from services.render.camera import CameraConfig, FollowCamera

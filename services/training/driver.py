@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.imitation_env import ImitationEnv
-from actors.motion_io import load_motion
-from actors.rollout_worker import RolloutWorker, WorkerSpec
+from actors.envs.imitation_env import ImitationEnv
+from actors.motion.formats.io import load_motion
+from actors.rollout.worker import RolloutWorker, WorkerSpec
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
 from learner.errors import NonFiniteError, SfvError
 from learner.ppo import PPOLearner

@@ -11,7 +11,7 @@ termination off, or with a looser rule), the environment is stepped with early t
 off and the clip's *strict* fall rule is checked after every control step
 (`FallDetector.for_clip(..., strict=True)`: DeepMimic's contact rule, every link but the feet
 and the links the clip allows such as the cartwheel's hands, plus a pelvis-height floor of
-`actors.falls.MIN_ROOT_HEIGHT`). A strict fall ends the episode (its step earns 0 when the
+`actors.envs.falls.MIN_ROOT_HEIGHT`). A strict fall ends the episode (its step earns 0 when the
 env's `zero_reward_on_fall` is set); a divergence (MuJoCo reset its state) ends it as a fall.
 A policy that kneels, sits or lies still is counted as fallen even when training let it go on.
 
@@ -51,9 +51,9 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.falls import FallDetector
-from actors.features import NUM_REWARD_QUATS, RewardFeatures
-from actors.imitation_env import ImitationEnv
+from actors.envs.falls import FallDetector
+from actors.character.features import NUM_REWARD_QUATS, RewardFeatures
+from actors.envs.imitation_env import ImitationEnv
 from learner.errors import SfvError
 from services.training.config import TrainConfig
 
@@ -230,7 +230,7 @@ def evaluate_run(run_dir: str | Path | None, episodes: int = DEFAULT_EPISODES, s
     """Evaluate a run's newest checkpoint (or an exported ONNX policy) on its motion (or `motion`)."""
     from threadpoolctl import threadpool_limits
 
-    from actors.motion_io import load_motion
+    from actors.motion.formats.io import load_motion
     from services.training.policy_source import load_policy_source
 
     source = load_policy_source(run_dir, onnx, motion)
@@ -266,7 +266,7 @@ class TrainingEvaluator:
 
         from threadpoolctl import threadpool_limits
 
-        from actors.motion_io import load_motion
+        from actors.motion.formats.io import load_motion
         from learner.policy import NumpyPolicy
 
         if self._env is None:

@@ -1,0 +1,1 @@
+"""Arenas: what the character stands in (flat floor, boxes, push box)."""
