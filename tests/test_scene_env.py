@@ -49,7 +49,7 @@ def test_episodes_draw_the_scene_unless_it_is_fixed(scene_env):
     for seed in range(6):
         scene_env.reset(seed=seed)
         drawn.append(scene_env.scene_vector.copy())
-        (box,) = scene_env.box_arena.box_geom_ids(scene_env.model)
+        (box,) = scene_env.arena.box_geom_ids(scene_env.model)
         assert scene_env.model.geom_pos[box, 2] + scene_env.model.geom_size[box, 2] == pytest.approx(scene_env.scene_vector[1], abs=1e-3)
     drawn = np.array(drawn)
     assert np.all(drawn >= low) and np.all(drawn <= high) and np.ptp(drawn, axis=0).min() > 0.05
@@ -75,7 +75,7 @@ def test_the_vector_env_keeps_each_envs_scene_in_its_row(clip):
         obs, rewards, *_ = vec.step(np.zeros((3, vec.action_dim), np.float32))
         for i, env in enumerate(vec.envs):
             np.testing.assert_allclose(obs[i, -2:], env.scene.normalise(env.scene_vector), atol=1e-6)
-            (box,) = env.box_arena.box_geom_ids(env.model)
+            (box,) = env.arena.box_geom_ids(env.model)
             assert env.model.geom_size[box, 2] == pytest.approx(max(env.scene_vector[1] / 2, 5e-4))
     assert len({tuple(env.scene_vector) for env in vec.envs}) == 3
 

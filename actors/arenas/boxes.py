@@ -1,4 +1,4 @@
-"""The flat floor with the scene's boxes: an arena part (`actors/arenas/flat.py`), not part of the walker.
+"""The flat floor with the scene's boxes: an `Arena` (`actors/arenas/base.py`), registered as "boxes".
 
 Each box is a static world geom with one explicit contact pair per walker geom (the arena's
 rule: no broad phase, so every collision is listed). The compiled model serves every scene
@@ -56,6 +56,10 @@ class BoxArena:
         return "\n    ".join(pairs)
 
     # ------------------------------------------------------------------ runtime
+    def obstacle_geom_ids(self, model: mujoco.MjModel) -> tuple[int, ...]:
+        """The Arena interface's obstacles: the boxes."""
+        return self.box_geom_ids(model)
+
     def box_geom_ids(self, model: mujoco.MjModel) -> tuple[int, ...]:
         """Geom ids of the boxes, in scene order (for obstacle-collision checks)."""
         return tuple(mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name) for name in self.box_names)
@@ -84,14 +88,3 @@ def _fmt(v) -> str:
 def scene_arena(scene: Scene, motion) -> BoxArena:
     """The arena of `scene` in the frame of `motion`'s first frame, boxes at the scene's e."""
     return BoxArena(scene, SceneFrame.of_motion(motion))
-
-
-def scene_humanoid(physics, scene_path: str | None, motion, check_start_pose: bool = True):
-    """The humanoid in the flat floor (no scene file: the default model, unchanged) or in the
-    boxes of `scene_path`, checked against `motion`'s start pose."""
-    from actors.character.humanoid import Humanoid
-    from actors.arenas.scene import load_scene
-
-    if scene_path is None:
-        return Humanoid(physics)
-    return Humanoid(physics, scene_arena(load_scene(scene_path, motion if check_start_pose else None), motion))

@@ -18,6 +18,11 @@ class FlatFloor:
     """An infinite checkered ground plane with one overhead light (DeepMimic's flat ground)."""
 
     geom_name: str = "floor"
+    scene = None  # nothing in it moves per episode (the Arena interface, `actors/arenas/base.py`)
+
+    def obstacle_geom_ids(self, model) -> tuple[int, ...]:
+        """No obstacles: the ground is not one."""
+        return ()
 
     def assets_xml(self) -> str:
         return ('<texture name="grid" type="2d" builtin="checker" width="512" height="512" rgb1="0.82 0.84 0.86" rgb2="0.68 0.7 0.73"/>\n'

@@ -26,6 +26,10 @@ class PushBoxArena:
     mass: float = 5.0
     floor_friction: float = 0.4
     floor: FlatFloor = FlatFloor()
+    scene = None  # the box is a free body, not a scene vector
+
+    def obstacle_geom_ids(self, model) -> tuple[int, ...]:
+        return ()
 
     @property
     def geom_name(self) -> str:  # the ground geom, as Humanoid and the fall rule look it up

@@ -54,9 +54,7 @@ class SceneFrame:
     @classmethod
     def of_motion(cls, motion) -> "SceneFrame":
         """The clip's first frame: root position and the yaw of the root's +x (its front)."""
-        from actors.character import quaternion as qn
-
-        front = qn.quat_rotate(motion.root_rot[0], np.array([1.0, 0.0, 0.0]))
+        front = motion.root_front(0)
         return cls((float(motion.root_pos[0, 0]), float(motion.root_pos[0, 1])), float(np.arctan2(front[1], front[0])))
 
     @property
@@ -143,10 +141,8 @@ class Scene:
     def check_start_pose(self, source, motion) -> None:
         """SceneError if a box, anywhere in its along-domain, covers the character's first
         frame (its links' horizontal positions plus START_MARGIN)."""
-        from actors.character.kinematics import forward_kinematics
-
         frame = SceneFrame.of_motion(motion)
-        links, _ = forward_kinematics(motion.root_pos[0], motion.root_rot[0], motion.joint_rot[0])
+        links = motion.link_positions(0)
         points = frame.to_scene(links[:, :2])
         lo, hi = points.min(axis=0) - START_MARGIN, points.max(axis=0) + START_MARGIN
         for box in self.boxes:

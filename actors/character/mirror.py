@@ -24,7 +24,6 @@ import numpy as np
 
 from actors.character.actions import NUM_REVOLUTE, REVOLUTE_LINKS, SPHERICAL_LINKS
 from actors.character.features import OBS_DIM, REFERENCE_OBS_WIDTH
-from actors.motion.reference_motion import ReferenceMotion
 from actors.character.skeleton import JOINT_LINKS, LINK_NAMES, LINKS, NUM_LINKS
 
 MIRROR_SUFFIX = "_mirror"
@@ -133,12 +132,12 @@ def observation_mirror(humanoid, reference_steps: int) -> SignedPermutation:
     return SignedPermutation.from_blocks(size, blocks)
 
 
-def mirror_motion(motion: ReferenceMotion) -> ReferenceMotion:
-    """The clip reflected in the world's x-z plane, left and right swapped, named
+def mirror_motion(motion):
+    """The clip (a `ReferenceMotion`) reflected in the world's x-z plane, left and right swapped, named
     `<name>_mirror` (or back to `<name>`). Timing and looping are the original's; extras
     (keypoints, camera tracks of a video reconstruction) are dropped, since they describe
     the original images."""
-    return ReferenceMotion(
+    return type(motion)(
         name=mirrored_name(motion.name),
         frame_times=motion.frame_times.copy(),
         root_pos=motion.root_pos * POLAR,

@@ -88,6 +88,12 @@ TOTAL_MASS = float(sum(link.mass for link in LINKS))
 # Degrees of freedom of the action and of MuJoCo's actuators.
 NUM_ACTUATED_DOF = int(3 * JOINT_IS_SPHERICAL.sum() + (~JOINT_IS_SPHERICAL).sum())  # 28
 
+# DeepMimic's humanoid3d `DiffWeight` per joint (the root's is 1, the welded wrists' 0): the
+# imitation reward's joint weights (`actors/envs/modes/sfv/reward.py`).
+DEEPMIMIC_JOINT_WEIGHTS = {"root": 1.0, "chest": 0.5, "neck": 0.3, "right_hip": 0.5, "right_knee": 0.3, "right_ankle": 0.2,
+                           "right_shoulder": 0.3, "right_elbow": 0.2, "left_hip": 0.5, "left_knee": 0.3, "left_ankle": 0.2,
+                           "left_shoulder": 0.3, "left_elbow": 0.2}
+
 
 def joint_limits_zup(link: Link) -> np.ndarray:
     """Per-axis limits of a joint in the Z-up frame, shape (3, 2) or (1, 2).

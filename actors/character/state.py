@@ -21,7 +21,6 @@ import numpy as np
 
 from actors.character import quaternion as qn
 from actors.character.humanoid import Humanoid
-from actors.motion.reference_motion import MotionPose
 from actors.character.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, NUM_JOINTS, revolute_angle
 
 STATE_SPACES = ("rotvec", "qpos")
@@ -54,7 +53,7 @@ class StateLayout:
         # in rotation-vector coordinates, where every vector is a valid rotation.
         self.state_quat_slices = [slice(1, 5)] + [slice(a - 2, a + 2) for a in qadr[sph]] if space == "qpos" else []
 
-    def pose_to_qpos_qvel(self, pose: MotionPose, qpos: np.ndarray, qvel: np.ndarray) -> None:
+    def pose_to_qpos_qvel(self, pose, qpos: np.ndarray, qvel: np.ndarray) -> None:
         qpos[0:3] = pose.root_pos
         qpos[3:7] = pose.root_rot
         qpos[self.ball_qpos] = pose.joint_rot[self.spherical]

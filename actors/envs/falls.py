@@ -17,10 +17,11 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from actors.character.humanoid3d import HUMANOID3D
 from actors.character.skeleton import LINK_NAMES, LINKS
 
 # Links that may touch the ground beyond the feet, per DeepMimic clip (from its train args).
-_ALWAYS_ALLOWED = ("right_ankle", "left_ankle")
+_ALWAYS_ALLOWED = HUMANOID3D.feet  # the character's feet: every clip allows them
 _EXTRA_ALLOWED: dict[str, tuple[str, ...]] = {
     "cartwheel": ("right_wrist", "left_wrist"),
     "crawl": tuple(n for n in LINK_NAMES if n not in ("root", "chest", "neck")),

@@ -30,19 +30,16 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 
-from actors.character.actions import ActionMapper
-from actors.arenas.boxes import BoxArena, scene_humanoid
+from actors.arenas import arena_for
+from actors.envs.core import ImitationCore
 from actors.envs.falls import FallDetector
-from actors.character.features import FeatureExtractor, RewardFeatures, observation_dim, update_kinematics
+from actors.character.features import observation_dim, update_kinematics
 from actors.character.humanoid import Humanoid, PhysicsConfig, control_substeps
 from actors.motion.reference_motion import ReferenceMotion
-from actors.envs.modes.movingcam.tracking import ENV_MODES, MovingcamConfig, MovingcamTracking
-from actors.envs.reference_obs import ReferenceObservation
+from actors.envs.modes import MODE_NAMES, mode_class
+from actors.envs.modes.movingcam.tracking import MovingcamConfig
 from actors.motion.reference_track import ReferenceTrack
-from actors.envs.modes.sfv.reward import NUM_TERMS, ImitationReward, RewardConfig
-from actors.envs.modes.sfv.reward import TERM_NAMES as REWARD_TERM_NAMES
-from actors.envs.modes.movingcam.reward import TERM_NAMES as MOVINGCAM_TERM_NAMES
-from actors.envs.root_sync import RootSync
+from actors.envs.modes.sfv.reward import RewardConfig
 from actors.envs.scene_reward import SCENE_LIMB_LINKS, SceneReward, SceneRewardConfig
 from actors.character.state import StateLayout
 
@@ -63,7 +60,7 @@ class EnvConfig:
     zero_reward_on_fall: bool = field(default=True, metadata={"help": "the step that ends in a fall earns 0, so falling never pays"})
     init: str = field(default="rsi", metadata={"choices": ("fsi", "rsi"), "help": "start of an episode when reset() is given no state: fsi or rsi"})
     reference_obs_steps: tuple[int, ...] = field(default=(1, 15), metadata={"help": "control steps ahead at which the policy also observes the reference root (position and rotation in its heading frame, drift included; MimicKit tar_obs_steps); () for SFV's observation. Walk, ASI, same seed, eval NR at 1 M samples: .908 with (1, 15), .708 without (RSI: .929 at 1 M with, .901 at 3 M without)"})
-    mode: str = field(default="sfv", metadata={"choices": ENV_MODES, "help": "sfv: DeepMimic/SFV imitation of the whole reference, root path included; movingcam: the dynamic-camera paper's tracking (002 §5: joint angles, orientation hint, contacts; the root path is left to physics, see actors/envs/modes/movingcam/tracking.py)"})
+    mode: str = field(default="sfv", metadata={"choices": MODE_NAMES, "help": "sfv: DeepMimic/SFV imitation of the whole reference, root path included; movingcam: the dynamic-camera paper's tracking (002 §5: joint angles, orientation hint, contacts; the root path is left to physics, see actors/envs/modes/movingcam/tracking.py)"})
     movingcam: MovingcamConfig = field(default_factory=MovingcamConfig, metadata={"help": "the movingcam mode's reward and termination"})
     state_space: str = field(default="rotvec", metadata={"choices": ("rotvec", "qpos"), "help": "coordinates of the initial-state vectors ASI learns a Gaussian over: rotvec (rotations as rotation vectors, 66-D) or qpos (SFV's raw qpos[2:] + qvel, 75-D, quaternion entries perturbed one by one)"})
     scene: str | None = field(default=None, metadata={"help": "scene file (YAML, boxes along the clip's initial heading: actors/arenas/scene.py) put on the floor; the scene vector joins the observation and 002's scene reward the reward; none: the flat floor"})
@@ -78,8 +75,7 @@ class EnvConfig:
         object.__setattr__(self, "reference_obs_steps", tuple(int(k) for k in self.reference_obs_steps))
         if isinstance(self.movingcam, dict):  # from a saved run config
             object.__setattr__(self, "movingcam", MovingcamConfig(**self.movingcam))
-        if self.mode not in ENV_MODES:
-            raise ValueError(f"env mode must be one of {ENV_MODES}, got {self.mode!r}")
+        mode_class(self.mode)  # ValueError naming the registered modes
         if any(k < 0 for k in self.reference_obs_steps):
             raise ValueError(f"reference_obs_steps must be >= 0, got {self.reference_obs_steps}")
 
@@ -87,13 +83,13 @@ class EnvConfig:
     def max_reward(self) -> float:
         """The most one control step can earn (the mode's reward weights, plus 002's scene reward with
         a scene file): the bound on value targets (`ppo.reward_max`)."""
-        track = self.movingcam.reward.max_reward if self.mode == "movingcam" else self.reward.max_reward
+        track = mode_class(self.mode).step_reward_bound(self)
         return track + (SceneRewardConfig().max_reward if self.scene is not None else 0.0)
 
     @property
     def root_free(self) -> bool:
         """The reference's root path is not tracked (movingcam): no root sync, no reference roots observed."""
-        return self.mode == "movingcam"
+        return not mode_class(self.mode).tracks_root
 
     @property
     def substeps(self) -> int:
@@ -104,62 +100,70 @@ class ImitationEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
 
     def __init__(self, motion: ReferenceMotion, config: EnvConfig = EnvConfig(), humanoid: Humanoid | None = None, track: ReferenceTrack | None = None):
-        self.config = config
+        self._config = config
         self.motion = motion
-        self.humanoid = humanoid or scene_humanoid(config.physics, config.scene, motion, config.scene_check_start_pose)
-        self.box_arena = self.humanoid.arena if isinstance(self.humanoid.arena, BoxArena) else None
+        self.humanoid = humanoid or Humanoid(config.physics, arena_for(config.scene, motion, config.scene_check_start_pose))
+        self.arena = self.humanoid.arena
+        self.scene = self.arena.scene  # boxes that move per episode (None: nothing moves)
         # With boxes each env moves its own (the model is what set_scene edits).
-        self.model = self.humanoid.model if self.box_arena is None else copy.copy(self.humanoid.model)
+        self.model = self.humanoid.model if self.scene is None else copy.copy(self.humanoid.model)
         self.data = mujoco.MjData(self.model)
         self.substeps = config.substeps
         self.track = track or ReferenceTrack(motion, self.humanoid, 1.0 / config.control_hz, config.horizon_s)
         self.layout = StateLayout(self.humanoid, config.state_space)
-        self.features = FeatureExtractor(self.humanoid)
-        self.actions = ActionMapper(config.action_parameterisation, config.residual_action_scale)
-        self.reward_fn = ImitationReward(config.reward, self.humanoid.joint_dof_adr)
-        # movingcam mode: 002's reward, termination and root-free observation (None in SFV's mode).
-        self.movingcam = MovingcamTracking(self.track, self.humanoid, config.movingcam, 1, config.reference_obs_steps) if config.root_free else None
         feature_dim = observation_dim(len(config.reference_obs_steps))
-        self.scene = None if self.box_arena is None else self.box_arena.scene
         scene_dim = 0 if self.scene is None else self.scene.vector_dim
         self.obs_dim = feature_dim + scene_dim
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self.obs_dim,), np.float32)
-        self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
         self.state_dim = self.layout.state_dim
-        # Per-step buffers: the hot path writes into these instead of allocating.
-        self._ctrl = self.data.ctrl.reshape(1, -1)  # one view kept: MjData hands out a new array per access
-        self._obs = np.zeros((1, self.obs_dim), dtype=np.float64)
-        self._obs_features = self._obs if not scene_dim else self._obs[:, :feature_dim]  # a view kept: FeatureExtractor caches by identity
         # The scene vector e of this episode and e over its domain (the observation's tail).
         self.scene_vector = np.zeros(scene_dim)
         self.scene_obs = np.zeros(scene_dim)
         self._fixed_scene: np.ndarray | None = None
-        self.scene_reward = None if self.scene is None else SceneReward.for_track(self.track, self.scene, self.box_arena.frame)
+        self.scene_reward = None if self.scene is None else SceneReward.for_track(self.track, self.scene, self.arena.frame)
         self.scene_limbs = self.humanoid.body_ids[SCENE_LIMB_LINKS] - 1  # rows of FeatureExtractor.pos
+        self.fall_detector = FallDetector.for_clip(self.humanoid, motion.name, config.ground_contact_links)
+        self._start = 0
+        self._step = 0
+        self._max_steps = 1
+        # The env core over a batch of one: this env's physics, features, mode and observation.
+        self.core = ImitationCore([self], self.humanoid, self.track, config, self.obs_dim, scene_dim, self.scene_reward, self.scene_limbs)
+        core = self.core
+        self.features = core.features
+        self.actions = core.actions
+        self.mode = core.mode
+        self.root_sync = core.root_sync
+        self.reference_obs = core.reference_obs
+        self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
         # The boxes' geom ids (empty on the flat floor), for an obstacle-collision termination.
-        self.obstacle_geom_ids: tuple[int, ...] = () if self.box_arena is None else self.box_arena.box_geom_ids(self.model)
-        if self.movingcam is not None:
-            self.movingcam.set_obstacles(self.obstacle_geom_ids)
+        self.obstacle_geom_ids: tuple[int, ...] = self.arena.obstacle_geom_ids(self.model)
+        self.mode.set_obstacles(self.obstacle_geom_ids)
         if self.scene is not None:
             self._fixed_scene = self.scene.vector()  # the file's boxes until the first reset
             self._place_scene(None)
             self._fixed_scene = None
-        self.fall_detector = FallDetector.for_clip(self.humanoid, motion.name, config.ground_contact_links)
-        self.root_sync = RootSync(self.track, 1, config.sync_root_per_cycle and not config.root_free)
-        self.reference_obs = ReferenceObservation(self.track, 1, () if config.root_free else config.reference_obs_steps)
-        self._row_buf = np.zeros(1, dtype=np.int64)
-        # MuJoCo resets MjData by itself when the simulation blows up (bad qpos / qvel / qacc)
-        # and only counts a warning: a view of those three counters (mj_resetData clears them).
-        first_bad = int(mujoco.mjtWarning.mjWARN_BADQPOS)
-        assert (int(mujoco.mjtWarning.mjWARN_BADQVEL), int(mujoco.mjtWarning.mjWARN_BADQACC)) == (first_bad + 1, first_bad + 2)
-        self._divergence_warnings = self.data.warning.number[first_bad : first_bad + 3]
-        self.reward_terms = np.zeros(NUM_TERMS)
-        self._terms = self.reward_terms.reshape(1, NUM_TERMS)  # the same numbers, as a batch of one
-        self._reference = RewardFeatures.zeros(self.model.nv, 1)  # this step's reference row, shifted by the root sync
-        self._start = 0
-        self._step = 0
-        self._max_steps = 1
+        self._row_buf = core.rows  # this env's reference row, as a batch of one
+        self._obs = core.obs64
+        self._obs_features = core.obs_features
+        self._terms = core.terms
+        self.reward_terms = core.terms[0]  # the same numbers, one env's
         self.horizon_cap_steps: int | None = None  # an episode-length curriculum's current limit
+
+    @property
+    def config(self) -> EnvConfig:
+        return self._config
+
+    @config.setter
+    def config(self, config: EnvConfig) -> None:
+        """A new config's per-step settings (early termination, zero reward on a fall) apply from
+        the next step; the rest was built from the first."""
+        self._config = config
+        self.core.configure(config)
+
+    @property
+    def movingcam(self):
+        """The movingcam mode's tracking state (its targets, contacts, termination); None in other modes."""
+        return getattr(self.mode, "tracking", None)
 
     # ------------------------------------------------------------------------ reset
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -193,6 +197,7 @@ class ImitationEnv(gym.Env):
         # Hold the current pose as the first PD target so the first substeps do not jerk.
         update_kinematics(self.model, self.data)
         self.root_sync.reset(0, self.data.qpos[:2], start)
+        self._row_buf[0] = start
         self.data.ctrl[:] = self.data.actuator_length if self.model.nu else 0.0
         return self._observation(), {"phase": float(self.track.phase[start]), "start_step": start}
 
@@ -202,47 +207,10 @@ class ImitationEnv(gym.Env):
         return self.track.ctrl[row:row + 1]
 
     def step(self, action):
-        self.actions.targets_batch(np.asarray(action).reshape(1, -1), self._ctrl, self.reference_targets(self.row + 1))
-        fell, diverged = self.simulate()
-        features = self.features
-        features.capture(0, self.data)
-        yaw = features.heading()
-        row = self.row
-        self._row_buf[0] = row
-        ref = self.track.features.take(self._row_buf, self._reference)
-        self.root_sync.apply(self._row_buf, features.pos[:, 0, :2], ref)
-        if self.movingcam is None:
-            reward = float(self.reward_fn.batch(features.reward_features(yaw), ref, self._terms)[0])
-        else:
-            self.movingcam.capture(0, self.data)
-            reward = float(self.movingcam.rewards(self._row_buf, features, features.reward_features(yaw), ref, self._terms,
-                                                  self.config.early_termination)[0])
-            fell = fell or bool(self.movingcam.terminated[0])
-        if self.scene_reward is not None:
-            reward += float(self.scene_rewards(features, self._row_buf, self.scene_vector[None])[0])
-        if diverged or (fell and self.config.zero_reward_on_fall):
-            reward = 0.0
-        terminated, truncated = self.ending(fell, diverged)
-        features.observations(self.track.phase[row], self._obs_features, yaw, self.reference_obs.gather(self._row_buf, self.root_sync.offset))
-        if self.movingcam is not None:
-            self.movingcam.observe(self._row_buf, self._obs_features)
-        self._obs[0, self._obs_features.shape[1]:] = self.scene_obs
+        core = self.core
+        reward = float(core.step(np.asarray(action).reshape(1, -1), self.scene_vector[None], self.scene_obs)[0])
+        terminated, truncated = self.ending(bool(core.fell[0]), bool(core.diverged[0]))
         return self._obs[0].astype(np.float32), reward, terminated, truncated, {}
-
-    def simulate(self) -> tuple[bool, bool]:
-        """Advance one control step with `data.ctrl` already set: (fell, diverged).
-
-        Shared by `step` and the vector env's batched step, so both end episodes alike.
-        """
-        mujoco.mj_step(self.model, self.data, nstep=self.substeps)
-        update_kinematics(self.model, self.data)
-        self._step += 1
-        # MuJoCo resets the data and counts a warning when the simulation blows up: end the
-        # episode as a fall rather than carry on from a teleported state.
-        warnings = self._divergence_warnings
-        diverged = bool(warnings[0] or warnings[1] or warnings[2])  # cheaper than .any() on 3 ints
-        fell = self.config.early_termination and self.fall_detector(self.data)
-        return fell, diverged
 
     def ending(self, fell: bool, diverged: bool) -> tuple[bool, bool]:
         """(terminated, truncated) after a step: a fall or divergence ends the episode, the
@@ -276,12 +244,7 @@ class ImitationEnv(gym.Env):
             e = self.scene.vector()
         self.scene_vector[:] = e
         self.scene_obs[:] = self.scene.normalise(e)
-        self.box_arena.set_scene(self.model, e)
-
-    def scene_rewards(self, features: FeatureExtractor, rows: np.ndarray, e: np.ndarray) -> np.ndarray:
-        """002's r_scene of the captured rows of `features` at reference `rows`, scenes e (B, 2K)."""
-        return self.scene_reward.batch(rows, features.pos[:, self.scene_limbs], features.root_xmat[:, ::3],
-                                       features.com, features.com_vel, e)
+        self.arena.set_scene(self.model, e)
 
     def max_episode_return(self, steps: int | None = None) -> float:
         """The most this episode can earn over its first `steps` steps (default: all): the
@@ -305,12 +268,12 @@ class ImitationEnv(gym.Env):
     @property
     def reward_term_names(self) -> tuple[str, ...]:
         """Names of the five numbers in `reward_terms` (the mode's reward terms, for logging)."""
-        return REWARD_TERM_NAMES if self.movingcam is None else MOVINGCAM_TERM_NAMES
+        return self.mode.term_names
 
     @property
     def max_reward(self) -> float:
         """The most one control step can earn (movingcam: r_track's, plus r_scene's with a scene)."""
-        return self.config.reward.max_reward if self.movingcam is None else self.movingcam.max_reward
+        return self.mode.max_reward
 
     @property
     def max_episode_steps(self) -> int:
@@ -331,11 +294,8 @@ class ImitationEnv(gym.Env):
     def reward_at(self, row: int) -> float:
         """Reward of the current simulated state against the reference at `row`."""
         sim = self.features.reward_features_of(self.data)
-        if self.movingcam is None:
-            return self.reward_fn(sim, self.track.reward_features(row), self.reward_terms)
-        self.movingcam.capture(0, self.data)
-        self._row_buf[0] = row
-        return float(self.movingcam.rewards(self._row_buf, self.features, sim, self.track.reward_features(row), self._terms, False)[0])
+        rows = np.array([row], dtype=np.int64)
+        return self.mode.reward_one(self.data, rows, self.features, sim, self.track.reward_features(row), self._terms)
 
     # --------------------------------------------------------------------- internals
     def _observation(self) -> np.ndarray:
@@ -350,7 +310,6 @@ class ImitationEnv(gym.Env):
         self._row_buf[0] = self.row
         reference = self.reference_obs.gather(self._row_buf, self.root_sync.offset)
         self.features.observation(self.data, self.track.phase[self.row], self._obs_features, reference)
-        if self.movingcam is not None:
-            self.movingcam.observe(self._row_buf, self._obs_features)
+        self.mode.observe(self._row_buf, self._obs_features)
         self._obs[0, self._obs_features.shape[1]:] = self.scene_obs
         return self._obs[0]

@@ -11,16 +11,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from actors.character.features import FeatureExtractor, RewardFeatures
-from actors.arenas.boxes import scene_humanoid
+from actors.arenas import arena_for
+from actors.character.humanoid import Humanoid
+from actors.envs.core import ImitationCore
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.envs.initial_states import BufferedStarts
 from actors.motion.reference_motion import ReferenceMotion
-from actors.envs.modes.movingcam.tracking import MovingcamTracking
-from actors.envs.reference_obs import ReferenceObservation
 from actors.motion.reference_track import ReferenceTrack
-from actors.envs.modes.sfv.reward import NUM_TERMS
-from actors.envs.root_sync import RootSync
 
 
 @dataclass
@@ -48,7 +45,7 @@ class EpisodeLog:
 
 class VectorImitationEnv:
     def __init__(self, motion: ReferenceMotion, config: EnvConfig, num_envs: int, starts: BufferedStarts, seed: int = 0, gamma: float = 0.95):
-        humanoid = scene_humanoid(config.physics, config.scene, motion, config.scene_check_start_pose)
+        humanoid = Humanoid(config.physics, arena_for(config.scene, motion, config.scene_check_start_pose))
         track = ReferenceTrack(motion, humanoid, 1.0 / config.control_hz, config.horizon_s)
         self.envs = [ImitationEnv(motion, config, humanoid, track) for _ in range(num_envs)]
         self.num_envs = num_envs
@@ -71,36 +68,26 @@ class VectorImitationEnv:
         self.episodes = EpisodeLog(state_dim=self.state_dim)
         self._seed = seed
         self._seeded = False
-        # Batched step: per-env MuJoCo, then one pass of feature maths over all envs.
+        # The env core over the batch: per-env MuJoCo, then one pass of feature maths over all envs.
         first = self.envs[0]
         self.track = track
-        self.features = FeatureExtractor(humanoid, num_envs)
-        self.actions = first.actions
-        self.reward_fn = first.reward_fn
-        self.early_termination = config.early_termination
-        self.zero_reward_on_fall = config.zero_reward_on_fall
-        self.root_sync = RootSync(track, num_envs, config.sync_root_per_cycle and not config.root_free)
-        self._targets = np.zeros((num_envs, first.model.nu))
-        self._base = np.zeros((num_envs, first.model.nu))  # each env's reference targets for residual actions
-        self._rows = np.zeros(num_envs, dtype=np.int64)  # each env's current reference row
-        self._next_rows = np.zeros(num_envs, dtype=np.int64)
-        self._reference = RewardFeatures.zeros(first.model.nv, num_envs)  # each env's reference row, per step
-        self._fell = np.zeros(num_envs, dtype=bool)
-        self._diverged = np.zeros(num_envs, dtype=bool)
-        self._terms = np.zeros((num_envs, NUM_TERMS))
-        self._obs64 = np.zeros((num_envs, obs_dim))
-        self.reference_obs = ReferenceObservation(track, num_envs, () if config.root_free else config.reference_obs_steps)
-        # movingcam mode (002): its reward, termination and root-free observation for the batch.
-        self.movingcam = MovingcamTracking(track, humanoid, config.movingcam, num_envs, config.reference_obs_steps) if config.root_free else None
-        if self.movingcam is not None:
-            self.movingcam.set_obstacles(first.obstacle_geom_ids)
         # A scene: every env's e and normalised e as rows of one array (the envs write their rows).
         self.scene_reward = first.scene_reward
-        self._obs64_features = self._obs64[:, :obs_dim - first.scene_vector.size]
         self.scene_vectors = np.stack([env.scene_vector for env in self.envs])
         self.scene_obs = np.stack([env.scene_obs for env in self.envs])
         for i, env in enumerate(self.envs):
             env.scene_vector, env.scene_obs = self.scene_vectors[i], self.scene_obs[i]
+        self.core = core = ImitationCore(self.envs, humanoid, track, config, obs_dim, first.scene_vector.size, first.scene_reward, first.scene_limbs)
+        core.mode.set_obstacles(first.obstacle_geom_ids)
+        self.features = core.features
+        self.actions = core.actions
+        self.mode = core.mode
+        self.root_sync = core.root_sync
+        self.reference_obs = core.reference_obs
+        self._rows = core.rows
+        self._fell = core.fell
+        self._diverged = core.diverged
+        self._obs64 = core.obs64
 
     @property
     def max_reward(self) -> float:
@@ -150,39 +137,8 @@ class VectorImitationEnv:
         (the true successor, for bootstrapping a truncated episode); `obs[i]` is the new
         episode's first observation then.
         """
-        base = None
-        if self.actions.residual:
-            np.add(self._rows, 1, out=self._next_rows)
-            base = np.take(self.track.ctrl, self._next_rows, axis=0, out=self._base)
-        targets = self.actions.targets_batch(actions, self._targets, base)
-        features = self.features
-        for i, env in enumerate(self.envs):
-            env.data.ctrl[:] = targets[i]
-            self._fell[i], self._diverged[i] = env.simulate()
-            features.capture(i, env.data)
-            if self.movingcam is not None:
-                self.movingcam.capture(i, env.data)
-            self._rows[i] = env.row
-        track = self.track
-        yaw = features.heading()
-        reference = track.features.take(self._rows, self._reference)
-        self.root_sync.apply(self._rows, features.pos[:, 0, :2], reference)
-        if self.movingcam is None:
-            rewards = self.reward_fn.batch(features.reward_features(yaw), reference, self._terms)
-        else:
-            rewards = self.movingcam.rewards(self._rows, features, features.reward_features(yaw), reference, self._terms,
-                                             self.early_termination)
-            self._fell |= self.movingcam.terminated
-        if self.scene_reward is not None:
-            rewards += self.envs[0].scene_rewards(features, self._rows, self.scene_vectors)
-        rewards[self._diverged] = 0.0
-        if self.zero_reward_on_fall:
-            rewards[self._fell] = 0.0
+        rewards = self.core.step(actions, self.scene_vectors, self.scene_obs)
         self.rewards[:] = rewards
-        features.observations(track.phase[self._rows], self._obs64_features, yaw, self.reference_obs.gather(self._rows, self.root_sync.offset))
-        if self.movingcam is not None:
-            self.movingcam.observe(self._rows, self._obs64_features)
-        self._obs64[:, self._obs64_features.shape[1]:] = self.scene_obs
         self.final_obs[:] = self._obs64
         self._ret += rewards
         self._disc += self._discount * rewards

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from actors.character import quaternion as qn
+from actors.character.kinematics import forward_kinematics
 from actors.character.skeleton import NUM_JOINTS
 from learner.errors import SfvError
 
@@ -69,6 +70,15 @@ class ReferenceMotion:
         offset = self.root_pos[-1] - self.root_pos[0]
         offset[2] = 0.0
         return offset if self.loop else np.zeros(3)
+
+    def root_front(self, frame: int = 0) -> np.ndarray:
+        """World direction of the root's +x (its front) at a frame (a scene's axes read it)."""
+        return qn.quat_rotate(self.root_rot[frame], np.array([1.0, 0.0, 0.0]))
+
+    def link_positions(self, frame: int = 0) -> np.ndarray:
+        """(links, 3) world positions of the character's links at a frame (forward kinematics)."""
+        links, _ = forward_kinematics(self.root_pos[frame], self.root_rot[frame], self.joint_rot[frame])
+        return links
 
     # ------------------------------------------------------------------- sampling
     def _locate(self, t: np.ndarray):

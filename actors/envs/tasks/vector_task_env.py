@@ -15,8 +15,10 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from actors.character.features import OBS_DIM, FeatureExtractor, update_kinematics
+from actors.character.features import OBS_DIM, FeatureExtractor
 from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import HUMANOID3D
+from actors.envs.simulator import MujocoSimulator
 from actors.envs.tasks.action_spaces import make_action_space
 from actors.envs.tasks.config import TaskEnvConfig
 from actors.envs.tasks.floor_fall import FloorFall
@@ -26,7 +28,7 @@ from actors.envs.tasks.push_box import PushBoxTask
 from actors.envs.tasks.starts import ClipStarts
 
 TASK_CLASSES = {"go_to": GoToTask, "push_box": PushBoxTask}
-WALKER_NQ, WALKER_NV = 43, 34  # the humanoid's own coordinates come first (props follow it)
+WALKER_NQ, WALKER_NV = HUMANOID3D.nq, HUMANOID3D.nv  # the character's own coordinates come first (props follow it)
 
 
 @dataclass
@@ -60,6 +62,7 @@ class VectorTaskEnv:
         self.humanoid = Humanoid(config.physics, task_class.arena)
         self.model = self.humanoid.model
         self.datas = [mujoco.MjData(self.model) for _ in range(m)]
+        self.sim = MujocoSimulator([self.model] * m, self.datas, config.substeps)
         self.task = task_class(config, m, self.model)
         self.action_space = make_action_space(config)
         self.starts = ClipStarts(config.start_motion, config.physics, 1.0 / config.control_hz)
@@ -87,8 +90,6 @@ class VectorTaskEnv:
         self._max_steps = config.horizon_steps
         self._cap: int | None = None
         self._limit = np.full(m, self._max_steps, np.int64)  # each env's episode length
-        bad = int(mujoco.mjtWarning.mjWARN_BADQPOS)  # BADQPOS, BADQVEL, BADQACC: MuJoCo reset the data itself
-        self._warnings = [d.warning.number[bad:bad + 3] for d in self.datas]
         self.episodes = TaskEpisodeLog()
 
     # ---------------------------------------------------------------- episodes
@@ -113,11 +114,10 @@ class VectorTaskEnv:
         return self.obs
 
     def _reset_env(self, i: int) -> None:
-        data = self.datas[i]
-        mujoco.mj_resetData(self.model, data)
+        data = self.sim.reset(i)
         qpos, qvel = self.starts.take(self.rng)
         data.qpos[:WALKER_NQ], data.qvel[:WALKER_NV] = qpos, qvel
-        update_kinematics(self.model, data)
+        self.sim.forward(i)
         yaw = float(np.arctan2(data.xmat[1, 3], data.xmat[1, 0]))
         self.task.reset(i, data.qpos[:2].copy(), yaw, self.rng, data)
         mujoco.mj_forward(self.model, data)
@@ -135,15 +135,7 @@ class VectorTaskEnv:
         """Step every env; returns views of (obs, rewards, terminated, truncated, final_obs)
         with `final_obs[i]` the true successor of a reset env (for bootstrapping)."""
         targets = self.action_space.targets(actions, self.obs[:, :PROPRIO_DIM], self._targets)
-        for i, data in enumerate(self.datas):
-            data.ctrl[:] = targets[i]
-            mujoco.mj_step(self.model, data, nstep=self.substeps)
-            update_kinematics(self.model, data)
-            w = self._warnings[i]
-            self._diverged[i] = bool(w[0] or w[1] or w[2])
-            self._fell[i] = self.fall(data)
-            self.features.capture(i, data)
-            self.task.capture(i, data)
+        self.sim.step(targets, self._fell, self._diverged, self.fall, (self.features.capture, self.task.capture))
         root_xy, vel_xy, yaw = self._planar()
         rewards, reached = self.task.rewards(root_xy, vel_xy, yaw, self.rng)
         rewards[self._fell | self._diverged] = 0.0  # the falling step earns nothing

@@ -36,16 +36,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from actors.character.features import HINGE_START, NUM_REWARD_QUATS, RewardFeatures
-from actors.character.skeleton import JOINT_IS_SPHERICAL, JOINT_NAMES
+from actors.character.skeleton import DEEPMIMIC_JOINT_WEIGHTS, JOINT_IS_SPHERICAL, JOINT_NAMES
 
 REWARD_FORMS = ("deepmimic", "sfv_paper")
 _NV = 6 + 3 * int(JOINT_IS_SPHERICAL.sum()) + int((~JOINT_IS_SPHERICAL).sum())  # the humanoid's qvel size
 TERM_NAMES = ("pose", "velocity", "end_effector", "root", "com")
 NUM_TERMS = len(TERM_NAMES)
-# DeepMimic's humanoid3d `DiffWeight` per joint (the root's is 1, the welded wrists' 0).
-DEEPMIMIC_JOINT_WEIGHTS = {"root": 1.0, "chest": 0.5, "neck": 0.3, "right_hip": 0.5, "right_knee": 0.3, "right_ankle": 0.2,
-                           "right_shoulder": 0.3, "right_elbow": 0.2, "left_hip": 0.5, "left_knee": 0.3, "left_ankle": 0.2,
-                           "left_shoulder": 0.3, "left_elbow": 0.2}
 
 
 @dataclass(frozen=True)
