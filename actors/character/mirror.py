@@ -4,7 +4,7 @@ NPMP (004 §3.2-3.3) distils one expert per clip; mirrored clips double the data
 when the body is symmetric, which this one is: in the Z-up frame of `skeleton.py` the
 character faces +x with its right side at -y, every left link is its right partner's
 reflection in the sagittal (x-z) plane (offsets, geoms, masses, gains), and the joint limits
-reflect into each other (checked in `tests/test_mirror.py`). The reflection S = diag(1, -1, 1)
+reflect into each other (checked in `tests/actors/character/test_mirror.py`). The reflection S = diag(1, -1, 1)
 acts on
 - positions and linear velocities (polar vectors): (x, y, z) -> (x, -y, z);
 - rotations R -> S R S, i.e. quaternions (w, x, y, z) -> (w, -x, y, -z), and rotation vectors

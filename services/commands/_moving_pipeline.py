@@ -38,7 +38,7 @@ def moving_camera_motion(track, motion):
     """The reconstruction with the video's extras, root-free (as `sfv reconstruct --camera moving`)."""
     from services.pose.camera_path import camera_path
     from services.reconstruction.root_free import make_root_free
-    from services.reconstruction.video_extras import video_extras
+    from services.contacts.video_extras import video_extras
 
     path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
     motion.extras.update(video_extras(track, path, True, motion.extras.get("label_flipped")))
@@ -86,7 +86,7 @@ def run_moving(args) -> int:
         if started_ray:
             ray.shutdown()
     from actors.motion.formats.io import load_motion
-    from services.reconstruction.video_extras import video_start_frame
+    from services.contacts.video_extras import video_start_frame
     from services.scene_fit.outputs import render_simulation
 
     first = video_start_frame(load_motion(str(motion_path)).extras)  # the motion may begin later in the video

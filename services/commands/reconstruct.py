@@ -58,7 +58,7 @@ def run_reconstruct(args: argparse.Namespace) -> int:
     from services.ray_session import connect_ray
     from services.reconstruction import ReconstructionConfig, reconstruct_on_ray, reconstruct_track
     from services.reconstruction.root_free import make_root_free
-    from services.reconstruction.video_extras import video_extras
+    from services.contacts.video_extras import video_extras
 
     _check_args(args)
     choice, frames = person_choice(args), frame_range(args)

@@ -32,7 +32,7 @@ Figures (one dict):
   same steps, each summed over episodes (1: it travelled as far as the clip; standing still: 0).
 - episodes; with pushes: pushes, push_impulse_ns, push_duration_s, push_episodes, push_survival_rate.
 
-Pushes (`pushes=N`, `sfv eval --push N`; the render's push code, `services/render/pushes.py`):
+Pushes (`pushes=N`, `sfv eval --push N`; the render's push code, `actors/envs/pushes.py`):
 each push is an impulse of `push_impulse` N s (default 40 N s: a 45 kg character's speed changes
 by ~0.9 m/s) applied to the root (pelvis) body as a constant horizontal force J / T for
 T = `push_duration_s` (0.1 s, rounded to whole control steps: 3 at 30 Hz), in a direction drawn
@@ -106,7 +106,7 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
         raise SfvError(f"evaluate: pushes must be >= 0, got {pushes}")
     schedule_config = None
     if pushes:
-        from services.render.pushes import PushConfig, PushSchedule, apply_push
+        from actors.envs.pushes import PushConfig, PushSchedule, apply_push
 
         defaults = PushConfig()
         schedule_config = PushConfig(count=pushes, impulse=defaults.impulse if push_impulse is None else float(push_impulse),

@@ -2,7 +2,7 @@
 
 The dynamic-camera paper (002 §4-5.1) trains from three cues a video gives besides joint
 rotations: a body-orientation hint (eq. 7) and per-end-effector contact flags (eq. 8). A
-motion reconstructed from video carries them as extras (`services/reconstruction/video_extras.py`);
+motion reconstructed from video carries them as extras (`services/contacts/video_extras.py`);
 a mocap clip (DeepMimic, BVH) does not, so for training a clip in movingcam mode, and for the
 synthetic moving-camera check, they are computed from the clip itself:
 
