@@ -35,6 +35,7 @@ from actors.envs.core import ImitationCore
 from actors.envs.falls import FallDetector
 from actors.character.features import observation_dim, update_kinematics
 from actors.character.humanoid import Humanoid, PhysicsConfig, control_substeps
+from actors.character.humanoid3d import HUMANOID3D
 from actors.motion.reference_motion import ReferenceMotion
 from actors.envs.modes import MODE_NAMES, mode_class
 from actors.envs.modes.movingcam.tracking import MovingcamConfig
@@ -102,7 +103,7 @@ class ImitationEnv(gym.Env):
     def __init__(self, motion: ReferenceMotion, config: EnvConfig = EnvConfig(), humanoid: Humanoid | None = None, track: ReferenceTrack | None = None):
         self._config = config
         self.motion = motion
-        self.humanoid = humanoid or Humanoid(config.physics, arena_for(config.scene, motion, config.scene_check_start_pose))
+        self.humanoid = humanoid or HUMANOID3D.build(config.physics, arena_for(config.scene, motion, config.scene_check_start_pose))
         self.arena = self.humanoid.arena
         self.scene = self.arena.scene  # boxes that move per episode (None: nothing moves)
         # With boxes each env moves its own (the model is what set_scene edits).

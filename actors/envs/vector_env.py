@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from actors.arenas import arena_for
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import HUMANOID3D
 from actors.envs.core import ImitationCore
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.envs.initial_states import BufferedStarts
@@ -45,7 +45,7 @@ class EpisodeLog:
 
 class VectorImitationEnv:
     def __init__(self, motion: ReferenceMotion, config: EnvConfig, num_envs: int, starts: BufferedStarts, seed: int = 0, gamma: float = 0.95):
-        humanoid = Humanoid(config.physics, arena_for(config.scene, motion, config.scene_check_start_pose))
+        humanoid = HUMANOID3D.build(config.physics, arena_for(config.scene, motion, config.scene_check_start_pose))
         track = ReferenceTrack(motion, humanoid, 1.0 / config.control_hz, config.horizon_s)
         self.envs = [ImitationEnv(motion, config, humanoid, track) for _ in range(num_envs)]
         self.num_envs = num_envs

@@ -16,7 +16,6 @@ import mujoco
 import numpy as np
 
 from actors.character.features import OBS_DIM, FeatureExtractor
-from actors.character.humanoid import Humanoid
 from actors.character.humanoid3d import HUMANOID3D
 from actors.envs.simulator import MujocoSimulator
 from actors.envs.tasks.action_spaces import make_action_space
@@ -59,7 +58,7 @@ class VectorTaskEnv:
         self.config = config
         self.num_envs = m = num_envs
         self.gamma = gamma
-        self.humanoid = Humanoid(config.physics, task_class.arena)
+        self.humanoid = HUMANOID3D.build(config.physics, task_class.arena)
         self.model = self.humanoid.model
         self.datas = [mujoco.MjData(self.model) for _ in range(m)]
         self.sim = MujocoSimulator([self.model] * m, self.datas, config.substeps)
