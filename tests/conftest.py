@@ -1,7 +1,6 @@
 """Shared fixtures: a real redis-server, the ../shared folder (skips cleanly when absent)."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
@@ -10,9 +9,6 @@ from tests.redis_fixture import redis_server, redis_url  # noqa: F401  (fixtures
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
-
-# Rendering tests run headless on CPU machines.
-os.environ.setdefault("MUJOCO_GL", "osmesa")
 
 
 def load_clip(name: str):

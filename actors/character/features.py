@@ -17,6 +17,7 @@ from actors.character.state import StateLayout
 
 OBS_DIM = 1 + NUM_LINKS * (3 + 4 + 3 + 3) + 1  # 197: height, link pos/rot/lin vel/ang vel, phase
 REFERENCE_OBS_WIDTH = 3 + 4  # per observed reference step: root position and rotation in the heading frame
+POSE_OBS_WIDTH = 1 + 3 * NUM_LINKS  # per observed step of the reference's pose: root height and link positions (actors/envs/reference_obs.py)
 
 
 def observation_dim(reference_steps: int = 0) -> int:

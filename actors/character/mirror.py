@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from actors.character.actions import NUM_REVOLUTE, REVOLUTE_LINKS, SPHERICAL_LINKS
-from actors.character.features import OBS_DIM, REFERENCE_OBS_WIDTH
+from actors.character.features import OBS_DIM, POSE_OBS_WIDTH, REFERENCE_OBS_WIDTH
 from actors.character.skeleton import JOINT_LINKS, LINK_NAMES, LINKS, NUM_LINKS
 
 MIRROR_SUFFIX = "_mirror"
@@ -109,10 +109,11 @@ def action_mirror(parameterisation: str = "exp_map") -> SignedPermutation:
     return SignedPermutation.from_blocks(base + NUM_REVOLUTE, blocks)
 
 
-def observation_mirror(humanoid, reference_steps: int) -> SignedPermutation:
+def observation_mirror(humanoid, reference_steps: int, pose_steps: int = 0) -> SignedPermutation:
     """Map of `FeatureExtractor.observations` (height, link positions, rotations, linear
-    and angular velocities in the heading frame, K reference roots, phase). Links there are
-    in MuJoCo body order (bodies 1..15), not skeleton order."""
+    and angular velocities in the heading frame, K reference roots, phase), followed by
+    `pose_steps` reference poses (`actors/envs/reference_obs.py`: height, link positions). Links
+    there are in MuJoCo body order (bodies 1..15), not skeleton order."""
     body_row = humanoid.body_ids - 1  # skeleton link -> its row in the observation's link blocks
     row_partner = np.empty(NUM_LINKS, dtype=np.int64)
     row_partner[body_row] = body_row[LINK_MIRROR]
@@ -129,7 +130,10 @@ def observation_mirror(humanoid, reference_steps: int) -> SignedPermutation:
     for step in range(k):
         blocks += [(ref_pos + 3 * step, ref_pos + 3 * step, POLAR), (ref_rot + 4 * step, ref_rot + 4 * step, QUAT)]
     size = OBS_DIM + REFERENCE_OBS_WIDTH * k
-    return SignedPermutation.from_blocks(size, blocks)
+    for step in range(int(pose_steps)):  # each pose: its height stays, link positions swap sides
+        start = size + POSE_OBS_WIDTH * step
+        blocks += [(start + 1 + 3 * row, start + 1 + 3 * row_partner[row], POLAR) for row in range(n)]
+    return SignedPermutation.from_blocks(size + POSE_OBS_WIDTH * int(pose_steps), blocks)
 
 
 def mirror_motion(motion):

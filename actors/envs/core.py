@@ -17,13 +17,13 @@ import numpy as np
 from actors.character.actions import ActionMapper
 from actors.character.features import FeatureExtractor, RewardFeatures
 from actors.envs.modes import mode_class
-from actors.envs.reference_obs import ReferenceObservation
+from actors.envs.reference_obs import ReferenceObservation, ReferencePoseObservation
 from actors.envs.root_sync import RootSync
 from actors.envs.simulator import MujocoSimulator
 
 
 class ImitationCore:
-    def __init__(self, envs, humanoid, track, config, obs_dim: int, scene_dim: int, scene_reward, scene_limbs):
+    def __init__(self, envs, humanoid, track, config, feature_dim: int, obs_dim: int, scene_dim: int, scene_reward, scene_limbs):
         num_envs = len(envs)
         first = envs[0]
         self.envs = envs
@@ -35,6 +35,8 @@ class ImitationCore:
         self.mode = mode_class(config.mode)(config, track, humanoid, num_envs)
         self.root_sync = RootSync(track, num_envs, config.sync_root_per_cycle and self.mode.tracks_root)
         self.reference_obs = ReferenceObservation(track, num_envs, config.reference_obs_steps if self.mode.tracks_root else ())
+        self.reference_pose_obs = ReferencePoseObservation(track, num_envs, config.reference_pose_obs_steps)
+        self.target_lead = first.target_lead_steps  # residual actions add to the reference this many steps later
         self.captures = (self.features.capture, *self.mode.captures)
         self.fall_detector = first.fall_detector
         self.configure(config)
@@ -50,7 +52,10 @@ class ImitationCore:
         self.diverged = np.zeros(num_envs, dtype=bool)
         self.terms = np.zeros((num_envs, len(self.mode.term_names)))
         self.obs64 = np.zeros((num_envs, obs_dim))
-        self.obs_features = self.obs64 if not scene_dim else self.obs64[:, :obs_dim - scene_dim]  # a view kept: FeatureExtractor caches by identity
+        # The observation: features (actors/character/features.py), the reference's poses ahead, the scene vector.
+        self.obs_features = self.obs64 if obs_dim == feature_dim else self.obs64[:, :feature_dim]  # a view kept: FeatureExtractor caches by identity
+        self.scene_obs_start = obs_dim - scene_dim
+        self.obs_pose = self.obs64[:, feature_dim:self.scene_obs_start]
 
     def configure(self, config) -> None:
         """The per-step settings of `config` (early termination, zero reward on a fall)."""
@@ -64,7 +69,8 @@ class ImitationCore:
         rows = self.rows
         base = None
         if self.actions.residual:
-            np.add(rows, 1, out=self._next_rows)
+            np.add(rows, 1 + self.target_lead, out=self._next_rows)
+            np.minimum(self._next_rows, self.track.rows - 1, out=self._next_rows)
             base = np.take(self.track.ctrl, self._next_rows, axis=0, out=self._base)
         targets = self.actions.targets_batch(actions, self.targets, base)
         self.sim.step(targets, self.fell, self.diverged, self.fall, self.captures)
@@ -84,7 +90,8 @@ class ImitationCore:
             rewards[self.fell] = 0.0
         features.observations(self.track.phase[rows], self.obs_features, yaw, self.reference_obs.gather(rows, self.root_sync.offset))
         self.mode.observe(rows, self.obs_features)
-        self.obs64[:, self.obs_features.shape[1]:] = scene_obs
+        self.reference_pose_obs.write(rows, self.obs_pose)
+        self.obs64[:, self.scene_obs_start:] = scene_obs
         return rewards
 
     def scene_rewards(self, rows: np.ndarray, e: np.ndarray) -> np.ndarray:

@@ -93,7 +93,19 @@ class FallDetector:
         self.min_root_height = min_root_height
         self.mask = body_geom_mask(humanoid.model, humanoid.body_ids[self.links])
         self.mask[humanoid.floor_geom_id] = False
+        link_of_body = np.full(humanoid.model.nbody, -1, dtype=np.int64)
+        link_of_body[humanoid.body_ids] = np.arange(len(humanoid.body_ids))
+        self._geom_link = link_of_body[humanoid.model.geom_bodyid]  # -1 for the arena's geoms
         self._root_z_index = 2  # qpos[2]: the free root's height
+
+    def touching(self, data: mujoco.MjData) -> int:
+        """Bitmask over skeleton links (bit i: LINKS[i]) of the fall links touching the ground
+        now; 0 when none does (what ended an episode, for the training metrics)."""
+        if data.ncon == 0 or not self.links.size:
+            return 0
+        geoms = data.contact.geom[:data.ncon]
+        hits = self._geom_link[geoms[self.mask[geoms]]]
+        return int(np.bitwise_or.reduce(np.left_shift(1, hits))) if hits.size else 0
 
     def __call__(self, data: mujoco.MjData) -> bool:
         if self.min_root_height is not None and data.qpos[self._root_z_index] < self.min_root_height:

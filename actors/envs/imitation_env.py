@@ -33,7 +33,7 @@ import numpy as np
 from actors.arenas import arena_for
 from actors.envs.core import ImitationCore
 from actors.envs.falls import FallDetector
-from actors.character.features import observation_dim, update_kinematics
+from actors.character.features import POSE_OBS_WIDTH, observation_dim, update_kinematics
 from actors.character.humanoid import Humanoid, PhysicsConfig, control_substeps
 from actors.character.humanoid3d import HUMANOID3D
 from actors.motion.reference_motion import ReferenceMotion
@@ -54,13 +54,16 @@ class EnvConfig:
     reward: RewardConfig = field(default_factory=RewardConfig, metadata={"help": "reward weights and scales"})
     horizon_s: float = field(default=20.0, metadata={"help": "episode horizon for looped clips (seconds)"})
     early_termination: bool = field(default=True, metadata={"help": "end the episode when a link the clip does not allow on the ground touches it (DeepMimic: every link but the feet); off for rolls"})
+    tracking_termination_m: float = field(default=0.0, metadata={"help": "also end the episode (as a fall) when an end effector or the root is farther than this (m) from the reference's (MimicKit pose_termination, PHC/ProtoMotions 0.25-0.5 m; actors/envs/modes/sfv/tracking_termination.py); 0: off. Never used by evaluation"})
     ground_contact_links: tuple[str, ...] | None = field(default=None, metadata={"help": "links besides the feet that may touch the ground without a fall; None: the clip's DeepMimic setting (cartwheel: hands; crawl: limbs; roll, getups: all)"})
     action_parameterisation: str = field(default="exp_map", metadata={"choices": ("exp_map", "axis_angle"), "help": "exp_map (28-D, DeepMimic's current code and MimicKit) or axis_angle (36-D, SFV's, with a dead point at zero). Walk, ASI, absolute targets, eval NR at 1 M samples: exp_map .23, axis_angle .07 (every episode falls in both)"})
+    target_lead_s: float = field(default=1.0 / 15.0, metadata={"help": "residual actions add to the reference pose this long after the step they act towards (rounded to control steps), not to that step's pose: PD control lags its target by about kd/kp = 0.1 s, so the reference one step ahead leaves fast motions trailing by up to the whole residual range. Zero actions from RSI, mean end-effector reward term over the first 15 steps at a lead of 0 / 1 / 2 / 3 steps: dance_a .26/.38/.43/.30, backflip .28/.38/.43/.37, walk .56/.63/.65/.65. 0: the step's own pose (before this setting)"})
     residual_action_scale: float | None = field(default=0.5, metadata={"help": "PD target = reference target of the step acted towards + this (rad) x action (dynamic-camera paper eq. 1); None: absolute targets. Walk, ASI, exp_map, eval NR at 1 M samples: .91 with no falls residual, .23 (all episodes falling) absolute"})
     sync_root_per_cycle: bool = field(default=True, metadata={"help": "move the reference's horizontal root to the character's at each new cycle of a looped clip (DeepMimic sync_char_root_pos)"})
     zero_reward_on_fall: bool = field(default=True, metadata={"help": "the step that ends in a fall earns 0, so falling never pays"})
     init: str = field(default="rsi", metadata={"choices": ("fsi", "rsi"), "help": "start of an episode when reset() is given no state: fsi or rsi"})
     reference_obs_steps: tuple[int, ...] = field(default=(1, 15), metadata={"help": "control steps ahead at which the policy also observes the reference root (position and rotation in its heading frame, drift included; MimicKit tar_obs_steps); () for SFV's observation. Walk, ASI, same seed, eval NR at 1 M samples: .908 with (1, 15), .708 without (RSI: .929 at 1 M with, .901 at 3 M without)"})
+    reference_pose_obs_steps: tuple[int, ...] = field(default=(), metadata={"help": "control steps ahead at which the policy also observes the reference's pose: root height and link positions relative to the root in its heading frame, 46 values a step (MimicKit's target observation with key bodies; actors/envs/reference_obs.py); () for none"})
     mode: str = field(default="sfv", metadata={"choices": MODE_NAMES, "help": "sfv: DeepMimic/SFV imitation of the whole reference, root path included; movingcam: the dynamic-camera paper's tracking (002 §5: joint angles, orientation hint, contacts; the root path is left to physics, see actors/envs/modes/movingcam/tracking.py)"})
     movingcam: MovingcamConfig = field(default_factory=MovingcamConfig, metadata={"help": "the movingcam mode's reward and termination"})
     state_space: str = field(default="rotvec", metadata={"choices": ("rotvec", "qpos"), "help": "coordinates of the initial-state vectors ASI learns a Gaussian over: rotvec (rotations as rotation vectors, 66-D) or qpos (SFV's raw qpos[2:] + qvel, 75-D, quaternion entries perturbed one by one)"})
@@ -74,10 +77,13 @@ class EnvConfig:
         if self.scene is not None:  # absolute: workers, renders and resumes may run elsewhere
             object.__setattr__(self, "scene", os.path.abspath(self.scene))
         object.__setattr__(self, "reference_obs_steps", tuple(int(k) for k in self.reference_obs_steps))
+        object.__setattr__(self, "reference_pose_obs_steps", tuple(int(k) for k in self.reference_pose_obs_steps))
         if isinstance(self.movingcam, dict):  # from a saved run config
             object.__setattr__(self, "movingcam", MovingcamConfig(**self.movingcam))
         mode_class(self.mode)  # ValueError naming the registered modes
-        if any(k < 0 for k in self.reference_obs_steps):
+        if not (self.target_lead_s >= 0 and self.tracking_termination_m >= 0):
+            raise ValueError(f"target_lead_s and tracking_termination_m must be >= 0, got {self.target_lead_s}, {self.tracking_termination_m}")
+        if any(k < 0 for k in self.reference_obs_steps + self.reference_pose_obs_steps):
             raise ValueError(f"reference_obs_steps must be >= 0, got {self.reference_obs_steps}")
 
     @property
@@ -114,7 +120,9 @@ class ImitationEnv(gym.Env):
         self.layout = StateLayout(self.humanoid, config.state_space)
         feature_dim = observation_dim(len(config.reference_obs_steps))
         scene_dim = 0 if self.scene is None else self.scene.vector_dim
-        self.obs_dim = feature_dim + scene_dim
+        # The observation: features (actors/character/features.py), the reference's poses ahead, the scene vector.
+        self.scene_obs_start = feature_dim + len(config.reference_pose_obs_steps) * POSE_OBS_WIDTH
+        self.obs_dim = self.scene_obs_start + scene_dim
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self.obs_dim,), np.float32)
         self.state_dim = self.layout.state_dim
         # The scene vector e of this episode and e over its domain (the observation's tail).
@@ -128,13 +136,15 @@ class ImitationEnv(gym.Env):
         self._step = 0
         self._max_steps = 1
         # The env core over a batch of one: this env's physics, features, mode and observation.
-        self.core = ImitationCore([self], self.humanoid, self.track, config, self.obs_dim, scene_dim, self.scene_reward, self.scene_limbs)
+        self.core = ImitationCore([self], self.humanoid, self.track, config, feature_dim, self.obs_dim, scene_dim, self.scene_reward, self.scene_limbs)
         core = self.core
         self.features = core.features
         self.actions = core.actions
         self.mode = core.mode
         self.root_sync = core.root_sync
         self.reference_obs = core.reference_obs
+        self.reference_pose_obs = core.reference_pose_obs
+        self.tracking_termination = getattr(self.mode, "tracking_termination", None)  # the sfv mode's deviation rule
         self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
         # The boxes' geom ids (empty on the flat floor), for an obstacle-collision termination.
         self.obstacle_geom_ids: tuple[int, ...] = self.arena.obstacle_geom_ids(self.model)
@@ -146,6 +156,8 @@ class ImitationEnv(gym.Env):
         self._row_buf = core.rows  # this env's reference row, as a batch of one
         self._obs = core.obs64
         self._obs_features = core.obs_features
+        self.obs_features_dim = feature_dim
+        self._obs_pose = core.obs_pose
         self._terms = core.terms
         self.reward_terms = core.terms[0]  # the same numbers, one env's
         self.horizon_cap_steps: int | None = None  # an episode-length curriculum's current limit
@@ -204,8 +216,14 @@ class ImitationEnv(gym.Env):
 
     # ------------------------------------------------------------------------- step
     def reference_targets(self, row: int) -> np.ndarray:
-        """(1, 28) PD targets of the reference at `row` (what residual actions add to)."""
+        """(1, 28) PD targets residual actions add to on the step towards reference `row`: the
+        reference's pose `target_lead_s` later (clamped to the table's last row)."""
+        row = min(row + self.target_lead_steps, self.track.rows - 1)
         return self.track.ctrl[row:row + 1]
+
+    @property
+    def target_lead_steps(self) -> int:
+        return int(round(self.config.target_lead_s * self.config.control_hz))
 
     def step(self, action):
         core = self.core
@@ -312,5 +330,6 @@ class ImitationEnv(gym.Env):
         reference = self.reference_obs.gather(self._row_buf, self.root_sync.offset)
         self.features.observation(self.data, self.track.phase[self.row], self._obs_features, reference)
         self.mode.observe(self._row_buf, self._obs_features)
-        self._obs[0, self._obs_features.shape[1]:] = self.scene_obs
+        self.reference_pose_obs.write(self._row_buf, self._obs_pose)
+        self._obs[0, self.scene_obs_start:] = self.scene_obs
         return self._obs[0]

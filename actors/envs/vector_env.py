@@ -18,6 +18,10 @@ from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.envs.initial_states import BufferedStarts
 from actors.motion.reference_motion import ReferenceMotion
 from actors.motion.reference_track import ReferenceTrack
+from actors.character.skeleton import NUM_LINKS
+
+
+OTHER_END = 1 << NUM_LINKS  # a fall with no fall link on the ground: tracking deviation, divergence, movingcam's rules
 
 
 @dataclass
@@ -29,12 +33,14 @@ class EpisodeLog:
     discounted_returns: list = field(default_factory=list)
     lengths: list = field(default_factory=list)
     fell: list = field(default_factory=list)
+    fall_causes: list = field(default_factory=list)  # bitmask: bit i link i on the ground, bit NUM_LINKS another end (0: no fall)
     components: list = field(default_factory=list)
     initial_states: list = field(default_factory=list)
     state_dim: int = 0
 
     def drain(self) -> dict[str, np.ndarray]:
-        out = {k: np.asarray(v, dtype=np.float32 if k != "components" else np.int64) for k, v in self.__dict__.items() if k not in ("initial_states", "state_dim")}
+        out = {k: np.asarray(v, dtype=np.int64 if k in ("components", "fall_causes") else np.float32)
+               for k, v in self.__dict__.items() if k not in ("initial_states", "state_dim")}
         out["fell"] = out["fell"].astype(bool)
         out["initial_states"] = np.array(self.initial_states, dtype=np.float32).reshape(len(self.initial_states), self.state_dim)
         for v in self.__dict__.values():
@@ -77,13 +83,16 @@ class VectorImitationEnv:
         self.scene_obs = np.stack([env.scene_obs for env in self.envs])
         for i, env in enumerate(self.envs):
             env.scene_vector, env.scene_obs = self.scene_vectors[i], self.scene_obs[i]
-        self.core = core = ImitationCore(self.envs, humanoid, track, config, obs_dim, first.scene_vector.size, first.scene_reward, first.scene_limbs)
+        self.core = core = ImitationCore(self.envs, humanoid, track, config, first.obs_features_dim, obs_dim, first.scene_vector.size,
+                                         first.scene_reward, first.scene_limbs)
         core.mode.set_obstacles(first.obstacle_geom_ids)
         self.features = core.features
         self.actions = core.actions
         self.mode = core.mode
         self.root_sync = core.root_sync
         self.reference_obs = core.reference_obs
+        self.reference_pose_obs = core.reference_pose_obs
+        self.tracking_termination = getattr(core.mode, "tracking_termination", None)
         self._rows = core.rows
         self._fell = core.fell
         self._diverged = core.diverged
@@ -161,5 +170,6 @@ class VectorImitationEnv:
         log.discounted_returns.append(self._disc[i])
         log.lengths.append(self._len[i])
         log.fell.append(fell)
+        log.fall_causes.append((env.fall_detector.touching(env.data) or OTHER_END) if fell else 0)
         log.components.append(self._component[i])
         log.initial_states.append(self._init_state[i].copy())

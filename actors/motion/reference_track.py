@@ -13,9 +13,10 @@ import math
 import mujoco
 import numpy as np
 
-from actors.character.features import FeatureExtractor, RewardFeatures, update_kinematics
+from actors.character.features import OBS_DIM, FeatureExtractor, RewardFeatures, update_kinematics
 from actors.character.humanoid import Humanoid
 from actors.motion.reference_motion import ReferenceMotion
+from actors.character.skeleton import NUM_LINKS
 from actors.character.state import StateLayout
 
 
@@ -44,6 +45,10 @@ class ReferenceTrack:
         self.ctrl = np.zeros((rows, model.nu))
         scratch = mujoco.MjData(model)
         features = FeatureExtractor(humanoid)
+        # The reference's own pose as the policy observes a pose: root height, link positions
+        # relative to the root in the heading frame (`actors/envs/reference_obs.py`).
+        self.pose_obs = np.zeros((rows, 1 + 3 * NUM_LINKS))
+        observation = np.zeros((1, OBS_DIM))
         poses = motion.sample(times)
         for k in range(rows):
             pose_k = type(poses)(*(getattr(poses, f)[k] for f in poses.__dataclass_fields__))
@@ -54,6 +59,8 @@ class ReferenceTrack:
             mujoco.mj_transmission(model, scratch)  # actuator_length: the pose as PD targets
             self.ctrl[k] = scratch.actuator_length
             self.features.values[k] = features.reward_features_of(scratch).values[0]
+            features.observations(self.phase[k], observation)  # the rows just captured
+            self.pose_obs[k] = observation[0, :1 + 3 * NUM_LINKS]
         self._rows = [self.features.slice(slice(k, k + 1)) for k in range(rows)]  # views, built once
 
     def reward_features(self, row: int) -> RewardFeatures:

@@ -115,7 +115,7 @@ def add_arguments(parser) -> None:
     """The learning suite's own flags (`sfv bench` also has --envs-per-worker, --physics-hz, --seed, --quiet)."""
     g = parser.add_argument_group("learning suite (--suite learning)")
     g.add_argument("--out-dir", default=None, help="directory of learning.json, learning.png and runs/ (required for --suite learning)")
-    g.add_argument("--skills", default=None, help=f"comma-separated motions: deepmimic:<clip>, a bare clip name or a file (default {','.join(DEFAULT_SKILLS)})")
+    g.add_argument("--skills", default=None, help=f"comma-separated motions: deepmimic:<clip>, a bare clip name or a file or 'all' (every DeepMimic clip; default {','.join(DEFAULT_SKILLS)})")
     g.add_argument("--inits", default=None, help="comma-separated initial-state strategies of asi, rsi, fsi (default all three)")
     g.add_argument("--seeds", default=None, help="comma-separated base seeds (default: --seed, 0)")
     g.add_argument("--samples", default=None, help=f"sample budget per run: 600, 500k, 2M, 1e6 (default {DEFAULT_SAMPLES:,})")
@@ -205,6 +205,10 @@ def config_from_args(args) -> LearningConfig:
     if config.physics_hz is not None and not config.physics_hz > 0:
         raise SfvError(f"--physics-hz must be positive, got {config.physics_hz}")
     skills = _names("skills", args.skills) if args.skills is not None else list(defaults.skills)
+    if skills == ["all"]:  # every DeepMimic humanoid3d clip
+        from actors.motion.formats.io import DEEPMIMIC_CLIPS
+
+        skills = list(DEEPMIMIC_CLIPS)
     config.skills = tuple(dict.fromkeys(skills))
     for cell in cells(config):  # loads every skill (unknown ones fail here) and checks every run's settings
         train_config(config, cell)
@@ -507,14 +511,22 @@ def markdown_table(doc: dict, skills=()) -> str:
             group = [e for e in runs if e["init"] == init]
             nr = _mean([e["eval"].get("normalized_return") for e in group])
             fall = _mean([e["eval"].get("fall_rate") for e in group])
-            reached = sorted(e["samples_to_threshold"] for e in group if e.get("samples_to_threshold") is not None)
+            reached = sorted((e["samples_to_threshold"], minutes_to_threshold(e)) for e in group if e.get("samples_to_threshold") is not None)
             if not reached:
                 to = "not reached"
             else:
-                to = f"{reached[len(reached) // 2]:,}" + ("" if len(reached) == len(group) else f" ({len(reached)}/{len(group)} seeds)")
+                median, minutes = reached[len(reached) // 2]
+                to = (f"{median:,}" + ("" if minutes is None else f" ({minutes:.0f} min)")
+                      + ("" if len(reached) == len(group) else f" ({len(reached)}/{len(group)} seeds)"))
             samples = max(e["samples"] for e in group)
             lines.append(f"| {skill} | {init} | {len(group)} | {samples:,} | {_fmt(nr)} | {_fmt(fall, '.2f')} | {to} |")
     return "\n".join(lines)
+
+
+def minutes_to_threshold(entry: dict) -> float | None:
+    """Wall minutes to the threshold at the run's own average rate (samples / wall_s)."""
+    rate, reached = entry.get("samples_per_s"), entry.get("samples_to_threshold")
+    return None if not rate or reached is None else reached / rate / 60.0
 
 
 def _mean(values):

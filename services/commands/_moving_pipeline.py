@@ -19,18 +19,15 @@ VIDEO_FILE = "simulated.mp4"
 
 
 def _base_config(args, scene_path):
-    from actors.envs.imitation_env import EnvConfig
+    """`sfv train`'s settings as given (`pipeline.train_config`), in 002's tracking mode with the scene."""
+    from services.commands._pipeline_settings import train_config
     from services.scene_fit import scene_contract
     from services.scene_fit.windows import WINDOW_GAMMA
-    from services.training.config import TrainConfig
 
-    base = TrainConfig(motion="", out="", workers=args.workers, envs_per_worker=args.envs_per_worker, init=args.init,
-                       samples=args.samples, seed=args.seed, ray_address=args.ray_address)
-    base.env = scene_contract.movingcam_env(EnvConfig(), None if scene_path is None else str(scene_path))
-    base.ppo.gamma = WINDOW_GAMMA  # eq. 15 reads a window's first value as its cumulative reward
-    if args.batch_size:
-        base.ppo.batch_size = args.batch_size
-        base.ppo.minibatch_size = min(base.ppo.minibatch_size, args.batch_size)
+    base = train_config(args, motion="", out="")
+    base.env = scene_contract.movingcam_env(base.env, None if scene_path is None else str(scene_path))
+    if "ppo.gamma" not in vars(args):
+        base.ppo.gamma = WINDOW_GAMMA  # eq. 15 reads a window's first value as its cumulative reward
     return base
 
 
@@ -62,6 +59,7 @@ def _reconstruct(args, out: Path):
 def run_moving(args) -> int:
     import ray
 
+    from services.console import attach_log_file
     from services.pose.video import probe_video
     from services.ray_session import connect_ray
     from services.scene_fit import scene_contract
@@ -76,7 +74,8 @@ def run_moving(args) -> int:
     if motion_path.exists() and not args.resume:
         raise SfvError(f"{out}: holds a pipeline run already; pass --resume to continue it or choose another --out")
     out.mkdir(parents=True, exist_ok=True)
-    started_ray = connect_ray(args.ray_address, log_to_driver=False)
+    attach_log_file(out)  # library output (Ray, gRPC, warnings) goes to DIR/sfv.log
+    started_ray = connect_ray(base.ray_address)
     try:
         if not motion_path.exists():
             _reconstruct(args, out)

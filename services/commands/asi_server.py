@@ -20,8 +20,11 @@ from learner.errors import SfvError
 log = logging.getLogger("sfv.asi_server")
 
 
+HELP = "run the adaptive state initialization gRPC service"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(subparsers) -> None:
-    p = subparsers.add_parser("asi-server", help="run the adaptive state initialization gRPC service",
+    p = subparsers.add_parser("asi-server", help=HELP,
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--port", type=int, required=True, help="port to listen on (0 picks a free one)")
     p.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")

@@ -10,12 +10,15 @@ from pathlib import Path
 from learner.errors import SfvError
 
 
+HELP = "throughput benchmarks: physics bound, env, worker, learner, training, peer, pose"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     from services.bench.config import SUITES, BenchConfig
     from services.bench.learning_suite import add_arguments as add_learning_arguments
 
     defaults = BenchConfig()
-    p = subparsers.add_parser("bench", help="throughput benchmarks: physics bound, env, worker, learner, training, peer, pose")
+    p = subparsers.add_parser("bench", help=HELP)
     p.add_argument("--suite", default="all", help=f"{', '.join(SUITES)} or all; several comma-separated (default all); "
                                                   "or learning on its own (training runs: see the learning flags)")
     p.add_argument("--out", type=Path, default=None, help="JSON report to write (atomically); required except for --suite learning")

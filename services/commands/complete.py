@@ -14,13 +14,16 @@ from __future__ import annotations
 import argparse
 import json
 
-from services.completion.config import CompletionConfig
-from services.pose.models import MODELS_ENV
+
+HELP = "predict an actor's motion from one still image with a library of trained runs"  # the one line `sfv --help` lists (without importing the command)
 
 
 def register(sub) -> None:
+    from services.completion.config import CompletionConfig
+    from services.pose.models import MODELS_ENV
+
     defaults = CompletionConfig()
-    p = sub.add_parser("complete", help="predict an actor's motion from one still image with a library of trained runs",
+    p = sub.add_parser("complete", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("image", help="still image of one actor (PNG, JPEG, ...)")
     p.add_argument("--library", nargs="+", required=True, metavar="RUN", help="run directories of trained skills")

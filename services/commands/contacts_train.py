@@ -9,11 +9,14 @@ from pathlib import Path
 from learner.errors import SfvError
 
 
+HELP = "train the foot-contact estimator (ONNX) from mocap clips"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     from services.contacts.settings import TrainSettings
 
     defaults = TrainSettings()
-    parser = subparsers.add_parser("contacts-train", help="train the foot-contact estimator (ONNX) from mocap clips")
+    parser = subparsers.add_parser("contacts-train", help=HELP)
     parser.add_argument("--out", type=Path, required=True, help="directory for foot_contact.onnx, .sha256 and .json")
     parser.add_argument("--epochs", type=int, default=defaults.epochs, help="passes over the training windows")
     parser.add_argument("--cameras", type=int, default=defaults.cameras_per_clip,

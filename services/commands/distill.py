@@ -29,13 +29,16 @@ def _add_config_flags(parser, cls, skip: tuple[str, ...] = ()) -> None:
             parser.add_argument(flag, type=kind, default=None, help=f"{f.metadata['help']} (default {default})")
 
 
+HELP = "distil expert controllers into a latent motor module (NPMP)"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(sub) -> None:
     import argparse
 
     from learner.motor_config import MotorModuleConfig
     from services.motor.recorder import RecordConfig
 
-    p = sub.add_parser("distill", help="distil expert controllers into a latent motor module (NPMP)",
+    p = sub.add_parser("distill", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("experts", help="directory of expert run directories, one per clip")
     p.add_argument("--out", required=True, help="module directory")

@@ -30,8 +30,11 @@ PUSH_HELP = ("push the character N times an episode: each push is an impulse (--
              "for N pushes that end without a strict fall")
 
 
+HELP = "evaluate a trained policy with strict falls (prints one JSON object)"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(sub) -> None:
-    p = sub.add_parser("eval", help="evaluate a trained policy with strict falls (prints one JSON object)",
+    p = sub.add_parser("eval", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("run", nargs="?", default=None, help="run directory (newest checkpoint); optional with --onnx")
     # Numbers are parsed here, not by argparse, so that a bad value is one line naming the flag.

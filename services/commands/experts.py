@@ -11,11 +11,14 @@ from __future__ import annotations
 import json
 
 
+HELP = "train one tracking expert per clip (resumable Ray job), or `table DIR` to evaluate them"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(sub) -> None:
     from services.experts.job import DEFAULT_SAMPLES
     from services.experts.table import CURVE_SECONDS, DEFAULT_EPISODES, DEFAULT_STARTS
 
-    p = sub.add_parser("experts", help="train one tracking expert per clip (resumable Ray job), or `table DIR` to evaluate them",
+    p = sub.add_parser("experts", help=HELP,
                        usage="sfv experts CLIPS... --out DIR [--samples N] [--parallel K] [--table]\n"
                              "       sfv experts table DIR [CLIP...] [--table-out OUT] [--episodes E] [--parallel K]\n"
                              "       sfv experts render DIR CLIP --video FILE.mp4 [--seconds T]",
@@ -85,8 +88,10 @@ class _DeterministicExpert:
 
 def render(args) -> int:
     """Film one expert (trained or mirrored) deterministically from a start at phase 0."""
-    import services.render  # noqa: F401  (sets MUJOCO_GL before anything below can import mujoco)
-    from learner.errors import SfvError
+    from services.render.gl import select_backend
+
+    select_backend()  # the GL backend the machine has, before mujoco loads; none is one line
+    from learner.errors import SfvError  # noqa: E402
     from services.experts.library import load_expert
     from services.render.movie import RenderConfig, render_policy
     from services.render.video_writer import check_video_path

@@ -20,8 +20,11 @@ from pathlib import Path
 from services.commands._rollout_args import add_rollout_args
 
 
+HELP = "export a run's policy (ONNX) or its rollouts (.npz motion, BVH)"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(sub) -> None:
-    p = sub.add_parser("export", help="export a run's policy (ONNX) or its rollouts (.npz motion, BVH)",
+    p = sub.add_parser("export", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("run", help="run directory (newest checkpoint)")
     p.add_argument("--onnx", default=None, help="write the policy as ONNX here")

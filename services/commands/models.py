@@ -3,11 +3,14 @@ from __future__ import annotations
 
 import argparse
 
-from services.pose.models import MEDIAPIPE_REQUIREMENT, MODELS_ENV, default_models_dir, fetch_models
+
+HELP = "manage pretrained model files"  # the one line `sfv --help` lists (without importing the command)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser("models", help="manage pretrained model files")
+    from services.pose.models import MEDIAPIPE_REQUIREMENT, MODELS_ENV, default_models_dir
+
+    parser = subparsers.add_parser("models", help=HELP)
     actions = parser.add_subparsers(dest="models_action", required=True)
     fetch = actions.add_parser(
         "fetch",
@@ -20,6 +23,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_fetch(args: argparse.Namespace) -> int:
+    from services.pose.models import fetch_models
+
     files = fetch_models(args.pose_models, force=args.force)
     print(f"pose detector: {files.detector}")
     print(f"pose landmarks: {files.landmark}")

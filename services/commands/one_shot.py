@@ -10,10 +10,13 @@ Default clips: those the module was trained on and those held out (its config.js
 from __future__ import annotations
 
 
+HELP = "one-shot imitation with a motor module, relative to each clip's expert"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(sub) -> None:
     import argparse
 
-    p = sub.add_parser("one-shot", help="one-shot imitation with a motor module, relative to each clip's expert",
+    p = sub.add_parser("one-shot", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("module", help="motor module directory (sfv distill --out)")
     p.add_argument("--experts", required=True, help="directory of expert run directories, one per clip")

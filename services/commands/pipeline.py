@@ -15,24 +15,22 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from services.training.config import INIT_MODES, TrainConfig
-
-TRAIN_DEFAULTS = TrainConfig()  # the pipeline's training flags take `sfv train`'s defaults
+HELP = "reconstruct a motion from a video, then train a controller for it"  # the one line `sfv --help` lists (without importing the command)
 
 
 def register(sub) -> None:
-    p = sub.add_parser("pipeline", help="reconstruct a motion from a video, then train a controller for it")
+    from services.commands._pipeline_settings import PIPELINE_SETS
+    from services.training.flags import add_config_flags
+
+    p = sub.add_parser("pipeline", help=HELP,
+                       usage="sfv pipeline VIDEO --out DIR [--camera static|moving] [--scene BOXES.yaml] [--resume] "
+                             "[--config FILE.yaml] [training settings ...]  (sfv pipeline --help lists every setting)",
+                       description="Reconstruct a motion from a video, then train a controller for it. The training "
+                                   "settings are `sfv train`'s (the config dataclasses' fields, same defaults).")
     p.add_argument("video", type=Path, help="input video of one person")
     p.add_argument("--out", type=Path, required=True, help="output directory: track.npz, motion.npz, train/")
     p.add_argument("--pose-models", default=None, help="BlazePose model directory (default: `sfv models fetch` cache)")
     p.add_argument("--iterations", type=int, default=None, help="reconstruction optimiser steps")
-    p.add_argument("--workers", type=int, default=TRAIN_DEFAULTS.workers, help="rollout workers")
-    p.add_argument("--envs-per-worker", type=int, default=TRAIN_DEFAULTS.envs_per_worker, help="envs per worker")
-    p.add_argument("--init", choices=INIT_MODES, default=TRAIN_DEFAULTS.init, help="initial state distribution")
-    p.add_argument("--samples", type=int, default=TRAIN_DEFAULTS.samples, help="training samples")
-    p.add_argument("--batch-size", type=int, default=None, help=f"samples per PPO iteration (default {TRAIN_DEFAULTS.ppo.batch_size})")
-    p.add_argument("--ray-address", default=None, help="join a Ray cluster; local Ray when absent")
-    p.add_argument("--seed", type=int, default=TRAIN_DEFAULTS.seed, help="base seed of training")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--camera", choices=("static", "moving"), default="static",
                    help="static: SFV's root path from the image (default); moving: root-free motion, 002's tracking, "
@@ -41,6 +39,9 @@ def register(sub) -> None:
                    "positions and heights are fitted within their domains")
     p.add_argument("--resume", action="store_true", help="with --camera moving: continue an interrupted run in --out "
                    "(its motion.npz kept, finished windows kept, the window in progress from its checkpoint)")
+    p.add_argument("--config", default=None, metavar="FILE.yaml",
+                   help="training settings from a YAML file (the layout `sfv train --print-config` writes); flags given win")
+    add_config_flags(p, skip=PIPELINE_SETS, title="training settings (`sfv train`'s; each a config field)")
     p.set_defaults(handler=run)
 
 
@@ -64,32 +65,30 @@ def run_static(args) -> int:
     from actors.motion.formats.io import save_motion
     from learner.errors import SfvError
     from services.pose import estimate_video
+    from services.commands._pipeline_settings import train_config
+    from services.console import attach_log_file
     from services.pose.video import probe_video
     from services.ray_session import connect_ray
     from services.reconstruction import ReconstructionConfig, reconstruct_on_ray
-    from services.training.config import TrainConfig
     from services.training.driver import Trainer
 
-    probe_video(args.video)  # missing file / not a video / no frames: one-line error before any work
     out: Path = args.out
+    train = train_config(args, str(out / "motion.npz"), str(out / "train"))  # a bad setting: one line before any work
+    probe_video(args.video)  # missing file / not a video / no frames: one-line error before any work
     if (out / "motion.npz").exists():
         raise SfvError(f"{out}: holds a pipeline run already; choose another --out")
     out.mkdir(parents=True, exist_ok=True)
+    attach_log_file(out)  # library output (Ray, gRPC, warnings) goes to DIR/sfv.log
     config = ReconstructionConfig()
     if args.iterations is not None:
         config = dataclasses.replace(config, iterations=args.iterations)
-    started_ray = connect_ray(args.ray_address, log_to_driver=False)
+    started_ray = connect_ray(train.ray_address)
     try:
         track = estimate_video(args.video, models_dir=args.pose_models, use_ray=True)
         track.save(out / "track.npz")
         motion = reconstruct_on_ray(track, config, args.video.stem)
         motion_path = save_motion(motion, out / "motion.npz")
-        train = TrainConfig(motion=str(motion_path), out=str(out / "train"), workers=args.workers,
-                            envs_per_worker=args.envs_per_worker, init=args.init, samples=args.samples,
-                            seed=args.seed, ray_address=args.ray_address)
-        if args.batch_size:
-            train.ppo.batch_size = args.batch_size
-            train.ppo.minibatch_size = min(train.ppo.minibatch_size, args.batch_size)
+        train.motion = str(motion_path)
         record = Trainer(train, progress=not args.quiet).run()
     finally:
         if started_ray:

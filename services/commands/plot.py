@@ -10,8 +10,11 @@ import json
 from pathlib import Path
 
 
+HELP = "plot learning curves of one or more runs to a PNG"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(sub) -> None:
-    p = sub.add_parser("plot", help="plot learning curves of one or more runs to a PNG",
+    p = sub.add_parser("plot", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("runs", nargs="+", help="run directories (each with metrics.jsonl)")
     p.add_argument("--out", required=True, help="PNG file to write (atomically)")

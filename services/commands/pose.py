@@ -8,12 +8,16 @@ from pathlib import Path
 
 from learner.errors import SfvError
 from services.commands._person_args import add_person_arguments, frame_range, person_choice
-from services.pose import PoseConfig
-from services.pose.models import MODELS_ENV
+
+
+HELP = "estimate the actor's pose in every frame of a video (Ray tasks)"  # the one line `sfv --help` lists (without importing the command)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser("pose", help="estimate the actor's pose in every frame of a video (Ray tasks)")
+    from services.pose import PoseConfig
+    from services.pose.models import MODELS_ENV
+
+    parser = subparsers.add_parser("pose", help=HELP)
     parser.add_argument("video", type=Path, help="input video file")
     parser.add_argument("--out", type=Path, default=None, help="output pose track of the subject (.npz)")
     parser.add_argument("--people", type=Path, default=None, metavar="PREVIEW.png",

@@ -9,11 +9,14 @@ from learner.errors import SfvError
 from services.commands._person_args import add_person_arguments, frame_range, person_choice
 
 
+HELP = "reconstruct a reference motion from a video (pose estimation + SFV motion reconstruction)"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     from services.reconstruction.config import ReconstructionConfig
 
     defaults = ReconstructionConfig()
-    parser = subparsers.add_parser("reconstruct", help="reconstruct a reference motion from a video (pose estimation + SFV motion reconstruction)")
+    parser = subparsers.add_parser("reconstruct", help=HELP)
     parser.add_argument("video", type=Path, help="input video file")
     parser.add_argument("--out", type=Path, required=True, help="output motion (.npz; `sfv train --motion` reads it)")
     parser.add_argument("--pose-models", metavar="DIR", default=None,

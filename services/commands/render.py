@@ -14,8 +14,11 @@ import json
 from services.commands._rollout_args import add_rollout_args
 
 
+HELP = "render a trained policy beside its reference motion to an MP4"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(sub) -> None:
-    p = sub.add_parser("render", help="render a trained policy beside its reference motion to an MP4",
+    p = sub.add_parser("render", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("run", nargs="?", default=None, help="run directory (newest checkpoint); optional with --onnx")
     p.add_argument("--out", required=True, help="MP4 file to write (atomically)")
@@ -48,7 +51,9 @@ def build_config(args):
 def run(args) -> int:
     import dataclasses
 
-    import services.render  # noqa: F401  (sets MUJOCO_GL before anything below can import mujoco)
+    from services.render.gl import select_backend
+
+    select_backend()  # the GL backend the machine has, before mujoco loads; none is one line
     from services.render.movie import render_policy
     from services.render.video_writer import check_video_path
     from services.training.policy_source import load_policy_source

@@ -12,8 +12,11 @@ from pathlib import Path
 from learner.errors import SfvError
 
 
+HELP = "render a reconstructed motion beside its video (MP4)"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser("render-motion", help="render a reconstructed motion beside its video (MP4)")
+    parser = subparsers.add_parser("render-motion", help=HELP)
     parser.add_argument("motion", help="motion file made by `sfv reconstruct` (.npz)")
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--video", type=Path, help="the video the motion was reconstructed from")

@@ -21,8 +21,11 @@ TASK_NAMES = {"go-to": "go_to", "push-box": "push_box"}
 SAFE_ON_RESUME = ("samples", "workers", "envs_per_worker", "runner", "torch_threads", "ray_address")
 
 
+HELP = "train, evaluate or render a task policy on a motor module (go-to, push-box)"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(sub) -> None:
-    p = sub.add_parser("task", help="train, evaluate or render a task policy on a motor module (go-to, push-box)",
+    p = sub.add_parser("task", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("what", choices=(*TASK_NAMES, "eval", "render"), help="a task to train, or eval / render a run")
     p.add_argument("run", nargs="?", default=None, help="run directory (eval, render)")

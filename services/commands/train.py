@@ -10,10 +10,13 @@ import json
 import logging
 
 
+HELP = "train a controller that imitates a motion"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(sub) -> None:
     from services.training.flags import add_config_flags
 
-    p = sub.add_parser("train", help="train a controller that imitates a motion",
+    p = sub.add_parser("train", help=HELP,
                        usage="sfv train --out DIR [--motion M] [--config FILE.yaml] [--resume] [settings ...]  "
                              "(sfv train --help lists every setting)",
                        description="Train a controller that imitates a motion. Defaults come from the config dataclasses; "
@@ -58,6 +61,7 @@ def build_config(args):
 
 
 def run(args) -> int:
+    from services.console import attach_log_file
     from services.training.driver import Trainer
     from services.training.flags import config_yaml
 
@@ -67,6 +71,7 @@ def run(args) -> int:
     if args.print_config:
         print(config_yaml(config), end="")
         return 0
+    attach_log_file(config.out)  # library output (Ray, gRPC, warnings) goes to RUN/sfv.log
     record = Trainer(config, resume=args.resume, progress=not args.quiet).run()
     summary = {k: record.get(k) for k in ("iteration", "samples", "normalized_return", "episode_length", "asi_version", "overall_samples_per_s")}
     print(json.dumps({"run": str(config.out), **summary}))

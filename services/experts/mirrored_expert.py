@@ -30,7 +30,8 @@ class MirroredExpert(Expert):
         super().__init__(expert.policy, expert.env_config, mirrored_name(expert.motion), mirrored_name(expert.name))
         self.expert = expert
         humanoid = Humanoid(expert.env_config.physics)
-        self.observation_map = observation_mirror(humanoid, len(expert.env_config.reference_obs_steps))
+        self.observation_map = observation_mirror(humanoid, len(expert.env_config.reference_obs_steps),
+                                                  len(expert.env_config.reference_pose_obs_steps))
         self.action_map = action_mirror(expert.env_config.action_parameterisation)
 
     def act(self, obs: np.ndarray) -> np.ndarray:

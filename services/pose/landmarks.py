@@ -108,4 +108,9 @@ class LandmarkModel:
 
 
 def _sigmoid(x: np.ndarray) -> np.ndarray:
-    return 1.0 / (1.0 + np.exp(-x))
+    """The logistic function without overflow: exp of a non-positive number only (the model's
+    visibility / presence logits reach -1000 and below on frames without the person)."""
+    x = np.asarray(x)
+    dtype = x.dtype if np.issubdtype(x.dtype, np.floating) else np.float64
+    e = np.exp(-np.abs(x.astype(np.float64)))
+    return np.where(x >= 0, 1.0 / (1.0 + e), e / (1.0 + e)).astype(dtype)

@@ -2,11 +2,7 @@
 beside its video (`motion_video.py`), a retargeted clip beside its source skeleton
 (`source_skeleton.py`); one off-screen renderer and one MP4 writer for all of them.
 
-`MUJOCO_GL` picks MuJoCo's OpenGL backend when mujoco is first imported; CPU machines have
-no display, so it defaults to OSMesa (software) here unless the user chose one (egl on a
-GPU host). `offscreen.gl_context` honours the same variable even if mujoco was
-imported earlier by another module.
+The OpenGL backend is chosen when a renderer makes its GL context (`gl.py`: an explicit
+`MUJOCO_GL` wins, otherwise EGL or OSMesa, whichever the machine has); importing this package
+sets nothing, so code that only uses its helpers (pushes, cameras) never loads GL.
 """
-import os
-
-os.environ.setdefault("MUJOCO_GL", "osmesa")

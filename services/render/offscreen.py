@@ -1,24 +1,24 @@
 """Off-screen MuJoCo rendering into numpy frames, with extra geoms added per frame.
 
 `mujoco.Renderer` picks its GL backend once, when mujoco is imported, and owns its scene.
-This class makes its own GL context from `MUJOCO_GL` (so importing mujoco earlier without
-the variable does not break headless rendering) and exposes the `MjvScene` between
+This class makes its own GL context with the backend `gl.py` chooses (so importing mujoco
+earlier without `MUJOCO_GL` does not break headless rendering) and exposes the `MjvScene` between
 `update()` and `render()`, which is where the ghost and the push arrow are added.
 """
 from __future__ import annotations
-
-import os
 
 import mujoco
 import numpy as np
 
 from learner.errors import SfvError
+from services.render.gl import select_backend
 
 
 def gl_context(width: int, height: int):
-    """A GL context for off-screen rendering from `MUJOCO_GL` (osmesa when unset: headless, works
-    everywhere; egl on a GPU host); any backend failure is a one-line SfvError."""
-    backend = os.environ.get("MUJOCO_GL", "").strip().lower() or "osmesa"
+    """A GL context for off-screen rendering with the backend the machine has (`gl.py`: an
+    explicit `MUJOCO_GL` wins, else EGL or OSMesa); no library or any backend failure is a
+    one-line SfvError."""
+    backend = select_backend()
     try:
         if backend == "osmesa":
             from mujoco.osmesa import GLContext
@@ -28,8 +28,9 @@ def gl_context(width: int, height: int):
             from mujoco.glfw import GLContext
         return GLContext(width, height)
     except Exception as exc:  # noqa: BLE001  (any backend failure means: cannot render here)
-        raise SfvError(f"MuJoCo cannot render off-screen with MUJOCO_GL={backend} ({type(exc).__name__}: {exc}); "
-                       "install libosmesa6 or set MUJOCO_GL=egl") from None
+        detail = str(exc).splitlines()[0] if str(exc) else ""
+        raise SfvError(f"render: MuJoCo cannot render off-screen with MUJOCO_GL={backend} ({type(exc).__name__}: {detail}); "
+                       "install libosmesa6 (apt-get install libosmesa6) or set MUJOCO_GL=egl") from None
 
 
 class OffscreenRenderer:

@@ -139,6 +139,9 @@ def _upgrade(d: dict) -> dict:
     `--resume` still build its env. (Two feature details changed for every run: end effectors
     are scored by their height above the ground, and the centre of mass's velocity is captured.)"""
     env = dict(d.get("env", {}))
+    if env and "target_lead_s" not in env:  # written before the residual base led the reference step
+        env["target_lead_s"] = 0.0
+        d["env"] = env
     if not env or "residual_action_scale" in env:
         return d
     from actors.character.skeleton import LINK_NAMES

@@ -226,14 +226,15 @@ def make_eval_env(motion, env_config) -> ImitationEnv:
 
 def evaluate_run(run_dir: str | Path | None, episodes: int = DEFAULT_EPISODES, seed: int = 0, onnx: str | None = None,
                  motion: str | None = None, pushes: int = 0, push_impulse: float | None = None,
-                 push_duration_s: float | None = None) -> dict:
-    """Evaluate a run's newest checkpoint (or an exported ONNX policy) on its motion (or `motion`)."""
+                 push_duration_s: float | None = None, checkpoint: str = "best") -> dict:
+    """Evaluate a run's best checkpoint (`checkpoint="latest"`: its newest; or an exported ONNX
+    policy) on its motion (or `motion`)."""
     from threadpoolctl import threadpool_limits
 
     from actors.motion.formats.io import load_motion
     from services.training.policy_source import load_policy_source
 
-    source = load_policy_source(run_dir, onnx, motion)
+    source = load_policy_source(run_dir, onnx, motion, checkpoint)
     env = make_eval_env(load_motion(source.motion), source.env_config)
     with threadpool_limits(1, user_api="blas"):  # batch-1 inference: BLAS threads only spin
         result = evaluate_policy(source.policy, env, episodes, seed, pushes, push_impulse, push_duration_s)

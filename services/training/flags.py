@@ -210,13 +210,15 @@ def _default_text(value) -> str:
 
 
 # ------------------------------------------------------------------------- the parser
-def add_config_flags(parser: argparse.ArgumentParser) -> None:
-    """Every config field as a flag (default SUPPRESS: only what the user gave appears in args)."""
+def add_config_flags(parser: argparse.ArgumentParser, skip: frozenset[str] = frozenset(),
+                     title: str = "settings (each a config field; `--print-config` shows them all)") -> None:
+    """Every config field as a flag (default SUPPRESS: only what the user gave appears in args);
+    `skip`: config paths a command sets itself (`sfv pipeline`: the motion), with their aliases."""
     by_path = {leaf.path: leaf for leaf in leaves()}
     aliased = {a.paths[0]: a for a in ALIASES if len(a.paths) == 1 and a.const is _MISSING}
-    group = parser.add_argument_group("settings (each a config field; `--print-config` shows them all)")
+    group = parser.add_argument_group(title)
     for leaf in by_path.values():
-        if leaf.path in SKIPPED:
+        if leaf.path in SKIPPED or leaf.path in skip:
             continue
         alias = aliased.get(leaf.path)
         names = list(dict.fromkeys(([alias.flag] if alias else []) + [leaf.flag]))
@@ -230,7 +232,7 @@ def add_config_flags(parser: argparse.ArgumentParser) -> None:
                            metavar=(alias.metavar if alias and alias.metavar else None if leaf.choices
                                     else leaf.path.rsplit(".", 1)[-1].upper()))
     for alias in ALIASES:
-        if alias.paths[0] in aliased and aliased[alias.paths[0]] is alias:
+        if alias.paths[0] in aliased and aliased[alias.paths[0]] is alias or skip.intersection(alias.paths):
             continue
         dest = "alias:" + alias.flag
         help_text = alias.help or by_path[alias.paths[0]].help

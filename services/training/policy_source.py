@@ -26,8 +26,10 @@ class PolicySource:
         return ImitationEnv(load_motion(self.motion), self.env_config)
 
 
-def load_policy_source(run_dir: str | Path | None, onnx: str | Path | None = None, motion: str | None = None) -> PolicySource:
-    """Policy and env for a run directory, an ONNX file, or both (ONNX policy, run's env)."""
+def load_policy_source(run_dir: str | Path | None, onnx: str | Path | None = None, motion: str | None = None,
+                       checkpoint: str = "best") -> PolicySource:
+    """Policy and env for a run directory (its best checkpoint, or `checkpoint="latest"`), an
+    ONNX file, or both (ONNX policy, run's env)."""
     if run_dir is None and onnx is None:
         raise SfvError("give a run directory or --onnx FILE")
     if onnx is not None:
@@ -44,8 +46,10 @@ def load_policy_source(run_dir: str | Path | None, onnx: str | Path | None = Non
         description = Path(onnx).name
     else:
         from learner.policy import NumpyPolicy
-        config, weights = load_run(run_dir)
+        from services.training.run_dir import run_checkpoint
+
+        config, weights = load_run(run_dir, checkpoint)
         env_config, motion_name = config.env, motion or config.motion
         policy = NumpyPolicy(weights, max_batch=1)
-        description = Path(run_dir).name
+        description = f"{Path(run_dir).name} ({run_checkpoint(run_dir, checkpoint).name})"
     return PolicySource(policy, env_config, motion_name, description)

@@ -45,20 +45,37 @@ def read_run_config(run_dir: str | Path):
         raise SfvError(f"{path}: unreadable run config ({type(exc).__name__}: {exc})") from None
 
 
-def load_run(run_dir: str | Path):
-    """The run's TrainConfig and the newest checkpoint's policy weights (numpy)."""
+BEST_CHECKPOINT = "best.pt"  # the policy of the best periodic evaluation so far (the driver keeps it)
+CHECKPOINT_CHOICES = ("best", "latest")
+
+
+def run_checkpoint(run_dir: str | Path, which: str = "best") -> Path:
+    """The checkpoint a run's policy is read from: `best.pt` (the highest evaluation so far,
+    what `sfv eval`, `render` and `export` use by default) when the run has one, else the newest;
+    `which="latest"` always the newest."""
+    if which not in CHECKPOINT_CHOICES:
+        raise SfvError(f"--checkpoint must be one of {', '.join(CHECKPOINT_CHOICES)}, got {which!r}")
+    best = Path(run_dir) / BEST_CHECKPOINT
+    if which == "best" and best.is_file():
+        return best
+    checkpoints = checkpoint_files(Path(run_dir))
+    if not checkpoints:
+        raise SfvError(f"{run_dir}: no checkpoint yet")
+    return checkpoints[-1]
+
+
+def load_run(run_dir: str | Path, which: str = "best"):
+    """The run's TrainConfig and the policy weights (numpy) of `run_checkpoint(run_dir, which)`."""
     import numpy as np
 
     from learner.checkpoint import load_checkpoint
 
     config = read_run_config(run_dir)
-    checkpoints = checkpoint_files(Path(run_dir))
-    if not checkpoints:
-        raise SfvError(f"{run_dir}: no checkpoint yet")
-    # The newest, verified: a corrupt or tampered one is an error, never silently an older policy.
-    payload = load_checkpoint(checkpoints[-1])
+    path = run_checkpoint(run_dir, which)
+    # Verified: a corrupt or tampered file is an error, never silently an older policy.
+    payload = load_checkpoint(path)
     if not isinstance(payload.get("policy_weights"), dict):
-        raise SfvError(f"{checkpoints[-1]}: checkpoint holds no policy weights")
+        raise SfvError(f"{path}: checkpoint holds no policy weights")
     weights = {k: v.numpy() if hasattr(v, "numpy") else np.asarray(v) for k, v in payload["policy_weights"].items()}
     return config, weights
 

@@ -143,3 +143,18 @@ def test_a_motion_file_name_with_the_mirror_suffix_loads_the_file_mirrored(walk_
     assert np.degrees(np.unwrap(qn.heading_angle(mirrored.root_rot))[-1]) < -50  # turns right
     with pytest.raises(SfvError, match="not found"):
         load_motion(str(tmp_path / "absent.npz_mirror"))
+
+
+def test_observation_mirror_covers_the_reference_pose_block(walk_clip, humanoid):
+    """With the reference's poses observed (`reference_pose_obs_steps`), the mirrored clip's
+    observation at the mirrored reference state is the mapped original's, pose block included."""
+    config = EnvConfig(horizon_s=2.0, reference_pose_obs_steps=(1, 15))
+    env, env_m = ImitationEnv(walk_clip, config, humanoid), ImitationEnv(mirror_motion(walk_clip), config, humanoid)
+    obs_map = observation_mirror(humanoid, len(config.reference_obs_steps), len(config.reference_pose_obs_steps))
+    assert obs_map(np.zeros((1, env.obs_dim))).shape == (1, env.obs_dim)
+    for phase in (0.1, 0.6):
+        original, _ = env.reset(options={"init": "rsi", "phase": phase})
+        mirrored, _ = env_m.reset(options={"init": "rsi", "phase": phase})
+        pose = slice(env.obs_dim - env.reference_pose_obs.width, env.obs_dim)
+        assert np.abs(original[pose]).max() > 0.1  # the block is filled
+        np.testing.assert_allclose(mirrored, obs_map(original[None])[0], atol=1e-5)

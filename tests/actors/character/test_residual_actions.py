@@ -56,16 +56,30 @@ def test_reference_targets_are_the_reference_pose(env):
     assert np.abs(np.diff(env.track.ctrl, axis=0)).max() > 0.01  # the targets follow the clip
 
 
-def test_zero_action_targets_the_next_reference_row(env):
+def test_zero_action_targets_the_reference_the_lead_after_the_next_row(env):
     assert env.action_space.shape == (28,) and env.actions.residual
+    lead = env.target_lead_steps
+    assert lead == round(env.config.target_lead_s * env.config.control_hz) == 2  # the default: 1/15 s at 30 Hz
     for phase in (0.0, 0.3, 0.8):
         _, info = env.reset(seed=0, options={"phase": phase})
         row = info["start_step"]
         for k in range(3):
             env.step(np.zeros(28))
-            expected = np.clip(reference_targets(env, row + k + 1), LOWER, UPPER)
+            expected = np.clip(reference_targets(env, row + k + 1 + lead), LOWER, UPPER)
             np.testing.assert_allclose(env.data.ctrl, expected, atol=1e-9)
-            assert np.abs(env.data.ctrl - reference_targets(env, row + k)).max() > 1e-3  # not this row's
+            assert np.abs(env.data.ctrl - reference_targets(env, row + k + 1)).max() > 1e-3  # not the next row's
+
+
+def test_lead_zero_targets_the_next_row_and_the_lead_stops_at_the_tables_end(walk, humanoid):
+    env = ImitationEnv(walk, EnvConfig(horizon_s=2.0, target_lead_s=0.0), humanoid)
+    _, info = env.reset(seed=0, options={"phase": 0.5})
+    env.step(np.zeros(28))
+    np.testing.assert_allclose(env.data.ctrl, np.clip(reference_targets(env, info["start_step"] + 1), LOWER, UPPER), atol=1e-9)
+    led = ImitationEnv(walk, EnvConfig(horizon_s=2.0), humanoid)
+    last = led.track.rows - 1
+    np.testing.assert_array_equal(led.reference_targets(last - 1), led.track.ctrl[last:last + 1])
+    with pytest.raises(ValueError, match="target_lead_s"):
+        EnvConfig(target_lead_s=-0.1)
 
 
 def test_vector_env_adds_each_envs_own_reference_row(walk):
@@ -78,7 +92,7 @@ def test_vector_env_adds_each_envs_own_reference_row(walk):
     action[:, ctrl_index("left_knee")] = -1.0  # bend further by 0.5 rad
     venv.step(action)
     for env, row in zip(venv.envs, rows):
-        expected = reference_targets(env, row + 1)
+        expected = reference_targets(env, row + 1 + env.target_lead_steps)
         expected[ctrl_index("left_knee")] -= SCALE
         np.testing.assert_allclose(env.data.ctrl, np.clip(expected, LOWER, UPPER), atol=1e-9)
 

@@ -140,3 +140,19 @@ def test_threshold_and_plot_from_eval_rows(tmp_path):
     assert "| deepmimic:run | asi | 1 | 20,480 | 0.850 | 0.00 | 20,480 |" in table
     assert "| deepmimic:run | rsi | 1 | 20,480 | 0.850 | 0.00 | not reached |" in table
     assert plot(doc, tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
+    timed = {**entry, "samples_to_threshold": 61440, "samples_per_s": 512.0}  # 120 s at its own rate
+    assert "| 61,440 (2 min) |" in markdown_table({"threshold": 0.8, "runs": {"run_asi_s0": timed}})
+
+
+def test_all_skills_means_every_deepmimic_clip():
+    import argparse
+
+    from actors.motion.formats.io import DEEPMIMIC_CLIPS
+    from services.bench.learning_suite import add_arguments, config_from_args
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    args = parser.parse_args(["--out-dir", "unused", "--skills", "all", "--inits", "rsi"])
+    args.out, args.device, args.torch_threads, args.physics_hz = None, None, None, None
+    config = config_from_args(args)
+    assert config.skills == tuple(DEEPMIMIC_CLIPS) and len(config.skills) == 15

@@ -1,0 +1,27 @@
+"""`sfv pipeline`'s training settings: `sfv train`'s flags (`services/training/flags.py`, one
+source of defaults and help text), less those the pipeline sets itself."""
+from __future__ import annotations
+
+# Training settings the pipeline sets itself: the motion is the reconstruction's; `--scene` is the
+# moving-camera path's boxes (fitted), not a fixed scene.
+PIPELINE_SETS = frozenset({"motion", "env.scene"})
+
+
+def train_config(args, motion: str, out: str):
+    """The training's TrainConfig: `sfv train`'s defaults, then --config, then the flags given."""
+    from learner.errors import SfvError
+    from services.training.flags import given_settings, read_config_file, resolve
+
+    given, flags = {}, {}
+    if args.config is not None:
+        given = read_config_file(args.config)
+        flags = {path: f"{args.config}: {path}" for path in given}
+        for path in PIPELINE_SETS.union({"out"}).intersection(given):
+            raise SfvError(f"{args.config}: {path} is set by sfv pipeline, not by its config file")
+    from_flags, flag_names = given_settings(args)
+    given.update(from_flags)
+    flags.update(flag_names)
+    config = resolve(given, flags, None, getattr(args, "preset:reward", None))
+    config.motion, config.out = motion, out
+    config.validate()
+    return config
