@@ -36,7 +36,7 @@ HELP = "evaluate a trained policy with strict falls (prints one JSON object)"  #
 def register(sub) -> None:
     p = sub.add_parser("eval", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("run", nargs="?", default=None, help="run directory (newest checkpoint); optional with --onnx")
+    p.add_argument("run", nargs="?", default=None, help="run directory (its best policy, see --checkpoint); optional with --onnx")
     # Numbers are parsed here, not by argparse, so that a bad value is one line naming the flag.
     p.add_argument("--episodes", default=str(DEFAULT_EPISODES), metavar="E",
                    help=f"episodes, started at evenly spaced phases of the clip (default {DEFAULT_EPISODES})")
@@ -47,6 +47,8 @@ def register(sub) -> None:
                    help="seconds one push acts (default 0.1 = 3 control steps at 30 Hz)")
     p.add_argument("--seed", default="0", metavar="K", help="episode k uses seed + k (push directions and times)")
     p.add_argument("--onnx", default=None, help="evaluate an exported ONNX policy instead of the checkpoint (no torch)")
+    p.add_argument("--checkpoint", choices=("best", "latest"), default="best",
+                   help="best: best.pt, the best periodic evaluation (the newest checkpoint when the run has none); latest: the newest checkpoint")
     p.add_argument("--motion", default=None, help="motion to evaluate on (default: the run's); required for --onnx without a run")
     p.set_defaults(handler=run)
 
@@ -87,5 +89,5 @@ def run(args) -> int:
     if args.run is None and args.onnx is None:
         raise SfvError("eval: give a run directory or --onnx FILE")
     print(json.dumps(evaluate_run(args.run, episodes, seed, onnx=args.onnx, motion=args.motion, pushes=pushes,
-                                  push_impulse=impulse, push_duration_s=duration)))
+                                  push_impulse=impulse, push_duration_s=duration, checkpoint=args.checkpoint)))
     return 0

@@ -26,7 +26,9 @@ HELP = "export a run's policy (ONNX) or its rollouts (.npz motion, BVH)"  # the 
 def register(sub) -> None:
     p = sub.add_parser("export", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("run", help="run directory (newest checkpoint)")
+    p.add_argument("run", help="run directory (its best policy, see --checkpoint)")
+    p.add_argument("--checkpoint", choices=("best", "latest"), default="best",
+                   help="best: best.pt, the best periodic evaluation (the newest checkpoint when the run has none); latest: the newest checkpoint")
     p.add_argument("--onnx", default=None, help="write the policy as ONNX here")
     p.add_argument("--motion", default=None, help="write the rollout as an sfv motion .npz here")
     p.add_argument("--bvh", default=None, help="write the rollout as BVH here")
@@ -67,7 +69,7 @@ def export_rollouts(args) -> list[dict]:
     from services.export.rollout import record_episode
     from services.training.policy_source import load_policy_source
 
-    source = load_policy_source(args.run, args.policy_onnx)
+    source = load_policy_source(args.run, args.policy_onnx, checkpoint=args.checkpoint)
     env = source.make_env()
     written = []
     for episode in range(args.episodes):
@@ -90,7 +92,7 @@ def run(args) -> int:
     if args.onnx:
         from services.export.onnx_run import export_run_onnx
 
-        summary.update(export_run_onnx(args.run, args.onnx))
+        summary.update(export_run_onnx(args.run, args.onnx, checkpoint=args.checkpoint))
     if args.motion or args.bvh:
         summary["rollouts"] = export_rollouts(args)
     print(json.dumps(summary))

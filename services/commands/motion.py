@@ -25,8 +25,11 @@ import math
 from learner.errors import SfvError
 
 
+HELP = "check or convert a reference motion"  # the one line `sfv --help` lists (without importing the command)
+
+
 def register(subparsers) -> None:
-    parser = subparsers.add_parser("motion", help="check or convert a reference motion",
+    parser = subparsers.add_parser("motion", help=HELP,
                                    description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     actions = parser.add_subparsers(dest="motion_action", required=True)
 
@@ -129,6 +132,9 @@ def run_convert(args: argparse.Namespace) -> int:
     report = dict(motion.summary())
     report["out"] = str(path)
     if retarget_report is not None:
+        from actors.motion.formats.bvh_import import FILE_REPORT
+
+        report["bvh"] = retarget_report.pop(FILE_REPORT)  # frames declared / read, each tolerated quirk
         report["retarget"] = retarget_report
     print(json.dumps(report))
     return 0

@@ -20,9 +20,11 @@ HELP = "render a trained policy beside its reference motion to an MP4"  # the on
 def register(sub) -> None:
     p = sub.add_parser("render", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("run", nargs="?", default=None, help="run directory (newest checkpoint); optional with --onnx")
+    p.add_argument("run", nargs="?", default=None, help="run directory (its best policy, see --checkpoint); optional with --onnx")
     p.add_argument("--out", required=True, help="MP4 file to write (atomically)")
     p.add_argument("--onnx", default=None, help="film an exported ONNX policy instead of the checkpoint (no torch)")
+    p.add_argument("--checkpoint", choices=("best", "latest"), default="best",
+                   help="best: best.pt, the best periodic evaluation (the newest checkpoint when the run has none); latest: the newest checkpoint")
     p.add_argument("--motion", default=None, help="reference motion (default: the run's); required for --onnx without a run")
     add_rollout_args(p)
     p.add_argument("--push", type=int, default=0, metavar="N", help="random horizontal pushes on the root per episode")
@@ -61,7 +63,7 @@ def run(args) -> int:
     config = build_config(args)
     config.validate()  # before the (slow) policy and env load
     check_video_path(args.out)
-    source = load_policy_source(args.run, args.onnx, args.motion)
+    source = load_policy_source(args.run, args.onnx, args.motion, args.checkpoint)
     env = source.make_env()
     legend = " (blue: reference)" if config.ghost else ""
     config = dataclasses.replace(config, label=f"{source.description} on {env.motion.name}{legend}")

@@ -11,7 +11,7 @@ CHECK_ROWS = 64
 CHECK_TOLERANCE = 1e-4  # float32 MLP: ONNX and numpy differ by rounding only (~1e-6)
 
 
-def export_run_onnx(run_dir: str | Path, out: str | Path, seed: int = 0) -> dict:
+def export_run_onnx(run_dir: str | Path, out: str | Path, seed: int = 0, checkpoint: str = "best") -> dict:
     """Write the deterministic policy (observation normalisation baked in) to `out`.
 
     The written file is reloaded with onnxruntime and compared with `NumpyPolicy` on random
@@ -25,7 +25,7 @@ def export_run_onnx(run_dir: str | Path, out: str | Path, seed: int = 0) -> dict
     out = Path(out)
     if out.suffix.lower() != ".onnx":
         raise SfvError(f"{out}: the policy file must end in .onnx")
-    _, weights = load_run(run_dir)
+    _, weights = load_run(run_dir, checkpoint)
     export_policy_onnx(weights, out)
     rng = np.random.default_rng(seed)
     mean, std = np.asarray(weights["obs_mean"]), np.asarray(weights["obs_std"])

@@ -31,7 +31,7 @@ class TrainConfig:
     asi_outage_s: float = field(default=30.0, metadata={"help": "seconds a worker keeps retrying an unreachable ASI server for starts before training stops"})
     asi_components: int = field(default=10, metadata={"help": "k, Gaussian components of the ASI distribution"})
     asi_episodes_per_update: int = field(default=2000, metadata={"help": "episodes reported per ASI gradient step (paper: 2000)"})
-    asi_initial_std_scale: float = field(default=0.25, metadata={"help": "initial std of every ASI component = this x the clip's per-dimension sample std (paper: 1). Measured with a trained walk policy over the first 2 s (bench/asi_start_spread.py): RSI reward/step .93, no falls; ASI at 1: .53, 57 in 100 starts fall (rotvec), 59 (qpos); 0.5: .76, 28; 0.25: .91, 5; 0.1: .94, 0"})
+    asi_initial_std_scale: float = field(default=0.1, metadata={"help": "initial std of every ASI component = this x the clip's per-dimension sample std (paper: 1). Measured with a trained walk policy over the first 2 s (bench/asi_start_spread.py): RSI reward/step .93, no falls; ASI at 1: .53, 57 in 100 starts fall (rotvec), 59 (qpos); 0.5: .76, 28; 0.25: .91, 5; 0.1: .94, 0. The fast clips' velocity spreads are 2-3x the walk's: control steps survived under pure PD tracking from 30 starts, reference / 0.1 / 0.25: dance_a 34 / 34 / 27, spinkick 31 / 31 / 29, backflip 32 / 26 / 22"})
     asi_step_size: float = field(default=0.001, metadata={"help": "ASI step size alpha_rho (paper: 0.001)"})
     job_id: str | None = field(default=None, metadata={"help": "ASI job id; derived from the run directory when absent"})
     checkpoint_every: int = field(default=10, metadata={"help": "iterations between checkpoints (and at the end)"})

@@ -18,13 +18,15 @@ Conventions of the files written here (what Blender, MotionBuilder and most BVH 
 - MOTION holds one frame per motion frame; `Frame Time` is the motion's frame period.
   Unevenly timed clips are resampled at their mean rate first.
 
-The reader parses any BVH (any channel order, End Sites, CRLF); `bvh_to_motion` turns a
+The reader parses any BVH (any channel order, End Sites or none, CRLF, tabs, more or fewer
+frames than declared: `read_bvh` lists what it tolerated); `bvh_to_motion` turns a
 file with this skeleton back into a ReferenceMotion; files from other rigs are retargeted by
 `actors/motion/formats/bvh_import.py` (`actors/motion/formats/retarget.py`).
 """
 from __future__ import annotations
 
 import os
+import re
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -173,12 +175,20 @@ def write_bvh(motion: ReferenceMotion, path: str | os.PathLike, units: str = "cm
 
 
 # ------------------------------------------------------------------------ reading
+CHANNEL_NAMES = {c.lower(): c for c in POSITION_CHANNELS + ("Xrotation", "Yrotation", "Zrotation")}
+_FRAMES_LINE = re.compile(r"^\s*Frames\s*:\s*(.*?)\s*$", re.IGNORECASE)
+_FRAME_TIME_LINE = re.compile(r"^\s*Frame\s*Time\s*:\s*(.*?)\s*$", re.IGNORECASE)
+_CANONICAL_HEADER = (re.compile(r"^Frames: \S+$"), re.compile(r"^Frame Time: \S+$"))
+
+
 @dataclass
 class Bvh:
     joints: list[BvhJoint]
     frame_time: float
     frames: np.ndarray  # (T, total channels)
     channel_start: list[int] = field(default_factory=list)  # first column of each joint
+    frames_declared: int | None = None  # the `Frames:` line (the file may hold more or fewer whole frames)
+    quirks: dict = field(default_factory=dict)  # what the file does that exporters do and the reader tolerated
 
     def joint_index(self, name: str) -> int:
         for index, joint in enumerate(self.joints):
@@ -190,27 +200,40 @@ class Bvh:
         start = self.channel_start[index]
         return self.frames[:, start:start + len(self.joints[index].channels)]
 
+    def file_report(self) -> dict:
+        """The file's frame counts and each tolerated quirk (`sfv motion convert` prints it)."""
+        return {"frames_declared": self.frames_declared, "frames_read": int(len(self.frames)), "quirks": dict(self.quirks)}
+
 
 class _Tokens:
     """Whitespace tokens with their line numbers, for errors that say where."""
 
-    def __init__(self, path: Path, text: str):
+    def __init__(self, path: Path, lines: list[str], first_line: int = 1):
         self.path = path
-        self.items = [(tok, n) for n, line in enumerate(text.splitlines(), 1) for tok in line.split()]
+        self.items = [(tok, n) for n, line in enumerate(lines, first_line) for tok in line.split()]
         self.pos = 0
 
     def error(self, what: str) -> SfvError:
         line = self.items[min(self.pos, len(self.items) - 1)][1] if self.items else 1
         return SfvError(f"{self.path}: line {line}: {what}")
 
-    def next(self, expected: str | None = None) -> str:
+    def next(self, expected: str | None = None, ignore_case: bool = False) -> str:
         if self.pos >= len(self.items):
             raise self.error(f"unexpected end of file (expected {expected or 'more'})")
         token = self.items[self.pos][0]
-        if expected is not None and token != expected:
+        if expected is not None and token != expected and not (ignore_case and token.lower() == expected.lower()):
             raise self.error(f"expected '{expected}', found '{token}'")
         self.pos += 1
         return token
+
+    def rest_of_line(self) -> list[str]:
+        """The tokens after the last one read, up to the end of its line."""
+        line = self.items[self.pos - 1][1]
+        out = []
+        while self.pos < len(self.items) and self.items[self.pos][1] == line:
+            out.append(self.items[self.pos][0])
+            self.pos += 1
+        return out
 
     def number(self, what: str) -> float:
         token = self.next()
@@ -225,76 +248,173 @@ class _Tokens:
         return value
 
 
-def _parse_joint(tokens: _Tokens, parent: int, joints: list[BvhJoint]) -> None:
-    name = tokens.next()
-    tokens.next("{")
+def _note(quirks: dict, key: str, item: str) -> None:
+    quirks.setdefault(key, [])
+    if item not in quirks[key]:
+        quirks[key].append(item)
+
+
+def _parse_joint(tokens: _Tokens, parent: int, joints: list[BvhJoint], quirks: dict) -> None:
+    words = tokens.rest_of_line()  # the name is the rest of the line: exporters write `JOINT Left Hip`
+    opened = bool(words) and words[-1] == "{"
+    if opened:
+        words = words[:-1]
+    if not words:
+        raise tokens.error("a joint without a name")
+    name = " ".join(words)
+    if len(words) > 1:
+        _note(quirks, "joint_names_with_spaces", name)
+    if not opened:
+        tokens.next("{")
     tokens.next("OFFSET")
     offset = np.array([tokens.number("OFFSET") for _ in range(3)])
     tokens.next("CHANNELS")
     count = tokens.number("channel count")
     if count != int(count) or not 0 <= count <= 6:
         raise tokens.error(f"joint {name}: channel count must be 0..6, got {count:g}")
-    channels = tuple(tokens.next() for _ in range(int(count)))
-    known = set(POSITION_CHANNELS) | {"Xrotation", "Yrotation", "Zrotation"}
-    if not set(channels) <= known or len(set(channels)) != len(channels):
-        raise tokens.error(f"joint {name}: bad channels {' '.join(channels)}")
+    listed = tokens.rest_of_line()
+    if len(listed) != int(count):
+        raise tokens.error(f"joint {name}: CHANNELS says {int(count)} but lists {len(listed)} ({' '.join(listed)})")
+    channels = tuple(CHANNEL_NAMES.get(c.lower(), c) for c in listed)
+    if not set(channels) <= set(CHANNEL_NAMES.values()) or len(set(channels)) != len(channels):
+        raise tokens.error(f"joint {name}: bad channels {' '.join(listed)}")
+    if channels != tuple(listed):
+        _note(quirks, "channel_names_in_other_case", name)
     joints.append(BvhJoint(name, parent, offset, channels))
-    me = len(joints) - 1
+    me, children = len(joints) - 1, 0
     while True:
         token = tokens.next()
         if token == "JOINT":
-            _parse_joint(tokens, me, joints)
-        elif token == "End":
-            tokens.next("Site")
+            _parse_joint(tokens, me, joints, quirks)
+            children += 1
+        elif token.lower() == "end":
+            tokens.next("Site", ignore_case=True)
             tokens.next("{")
             tokens.next("OFFSET")
             end = np.array([tokens.number("End Site OFFSET") for _ in range(3)])
             tokens.next("}")
             joints[me] = BvhJoint(name, parent, offset, channels, end)
         elif token == "}":
+            if children == 0 and joints[me].end_site is None:
+                _note(quirks, "leaf_joints_without_end_site", name)
             return
         else:
             tokens.pos -= 1
             raise tokens.error(f"expected JOINT, End Site or '}}' in joint {name}, found '{token}'")
 
 
+def _header_value(path: Path, lines: list[str], index: int, pattern: re.Pattern, what: str) -> tuple[str, int]:
+    """The value of the MOTION header line `what` at or after `index` (blank lines skipped)."""
+    while index < len(lines) and not lines[index].strip():
+        index += 1
+    if index >= len(lines):
+        raise SfvError(f"{path}: line {index}: unexpected end of file (expected '{what}:')")
+    match = pattern.match(lines[index])
+    if match is None:
+        raise SfvError(f"{path}: line {index + 1}: expected '{what}:', found '{lines[index].strip()[:40]}'")
+    return match.group(1), index
+
+
+def _header_number(path: Path, text: str, index: int, what: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise SfvError(f"{path}: line {index + 1}: {what}: '{text}' is not a number") from None
+    if not np.isfinite(value):
+        raise SfvError(f"{path}: line {index + 1}: {what} is not finite")
+    return value
+
+
 def read_bvh(path: str | os.PathLike) -> Bvh:
-    """Parse a BVH file; SfvError names the file and line of any fault."""
+    """Parse a BVH file as exporters write them; SfvError names the file and line of any fault.
+
+    Tolerated (and listed in `Bvh.quirks`): more or fewer whole frames than `Frames:` declares
+    (what is there is read), CRLF or CR line ends, tabs, blank lines, a UTF-8 byte-order mark,
+    `Frames:` / `Frame Time:` spacing, joint names with spaces (colons need nothing), leaf
+    joints without an End Site, channel names in another case. Errors: a partial frame (a
+    line with fewer or more values than the hierarchy's channels), a value that is not a
+    number, a CHANNELS line whose count is not the number of channels it lists.
+    """
     path = Path(path)
     try:
-        text = path.read_text(encoding="ascii", errors="strict")
+        raw = path.read_bytes()
     except FileNotFoundError:
         raise SfvError(f"{path}: BVH file not found") from None
-    except (UnicodeDecodeError, OSError) as exc:
+    except OSError as exc:
         raise SfvError(f"{path}: unreadable BVH ({type(exc).__name__})") from None
-    tokens = _Tokens(path, text)
+    quirks: dict = {}
+    if raw.startswith(b"\xef\xbb\xbf"):
+        quirks["utf8_byte_order_mark"] = True
+        raw = raw[3:]
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise SfvError(f"{path}: unreadable BVH (not text: UnicodeDecodeError)") from None
+    if "\r\n" in text:
+        quirks["crlf_line_ends"] = True
+    elif "\r" in text:
+        quirks["cr_line_ends"] = True
+    if "\t" in text:
+        quirks["tabs"] = True
+    lines = text.splitlines()
+    motion_at = next((i for i, line in enumerate(lines) if line.strip().upper() == "MOTION"), len(lines))
+    tokens = _Tokens(path, lines[:motion_at])
     tokens.next("HIERARCHY")
     tokens.next("ROOT")
     joints: list[BvhJoint] = []
-    _parse_joint(tokens, -1, joints)
-    tokens.next("MOTION")
-    tokens.next("Frames:")
-    count = tokens.number("Frames")
-    if count != int(count) or count < 1:
-        raise tokens.error(f"Frames must be a positive whole number, got {count:g}")
-    tokens.next("Frame")
-    tokens.next("Time:")
-    frame_time = tokens.number("Frame Time")
+    _parse_joint(tokens, -1, joints, quirks)
+    if tokens.pos < len(tokens.items):
+        raise tokens.error(f"expected MOTION after the hierarchy, found '{tokens.items[tokens.pos][0]}'")
+    if motion_at == len(lines):
+        raise tokens.error("unexpected end of file (expected MOTION)")
+    count_text, index = _header_value(path, lines, motion_at + 1, _FRAMES_LINE, "Frames")
+    declared = _header_number(path, count_text, index, "Frames")
+    if declared != int(declared) or declared < 0:
+        raise SfvError(f"{path}: line {index + 1}: Frames must be a whole number, got {declared:g}")
+    headers = [lines[index].strip()]
+    time_text, index = _header_value(path, lines, index + 1, _FRAME_TIME_LINE, "Frame Time")
+    frame_time = _header_number(path, time_text, index, "Frame Time")
     if frame_time <= 0:
-        raise tokens.error(f"Frame Time must be positive, got {frame_time:g}")
+        raise SfvError(f"{path}: line {index + 1}: Frame Time must be positive, got {frame_time:g}")
+    headers.append(lines[index].strip())
+    if not all(pattern.match(line) for pattern, line in zip(_CANONICAL_HEADER, headers)):
+        quirks["motion_header_spacing"] = headers  # e.g. `Frame Time:0.0333` or `Frames :  76`
     width = sum(len(j.channels) for j in joints)
-    values = tokens.items[tokens.pos:]
-    if len(values) != int(count) * width:
-        raise SfvError(f"{path}: MOTION holds {len(values)} numbers, expected {int(count)} frames x {width} channels")
-    try:
-        frames = np.array([tok for tok, _ in values], dtype=np.float64).reshape(int(count), width)
-    except ValueError:
-        raise SfvError(f"{path}: MOTION holds values that are not numbers") from None
+    rows, blank = [], 0
+    for number, line in enumerate(lines[index + 1:], index + 2):
+        values = line.split()
+        if not values:
+            blank += 1
+            continue
+        if len(values) != width:
+            raise SfvError(f"{path}: line {number}: MOTION frame {len(rows)} holds {len(values)} values, expected {width} "
+                           f"(the hierarchy's channels): a partial frame")
+        try:
+            rows.append([float(v) for v in values])
+        except ValueError:
+            bad = next(v for v in values if not _is_number(v))
+            raise SfvError(f"{path}: line {number}: MOTION frame {len(rows)}: '{bad}' is not a number") from None
+    blank += sum(1 for line in lines[:motion_at] if not line.strip())
+    if blank:
+        quirks["blank_lines"] = blank
+    if not rows:
+        raise SfvError(f"{path}: MOTION holds no frames (Frames: {int(declared)})")
+    frames = np.array(rows, dtype=np.float64).reshape(len(rows), width)
+    if len(rows) != int(declared):
+        quirks["frame_count"] = f"Frames: {int(declared)} declared, {len(rows)} whole frames read"
     if not np.isfinite(frames).all():
         frame = int(np.argwhere(~np.isfinite(frames))[0][0])
         raise SfvError(f"{path}: MOTION frame {frame} holds NaN or infinite values")
     starts = list(np.cumsum([0] + [len(j.channels) for j in joints[:-1]]))
-    return Bvh(joints, frame_time, frames, [int(s) for s in starts])
+    return Bvh(joints, frame_time, frames, [int(s) for s in starts], int(declared), quirks)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 # -------------------------------------------------------------------- to a motion

@@ -7,6 +7,7 @@ through `retarget.retarget`.
 """
 from __future__ import annotations
 
+import logging
 import os
 from pathlib import Path
 
@@ -17,6 +18,10 @@ from actors.motion.reference_motion import MotionFormatError, ReferenceMotion
 from actors.motion.formats.retarget import RetargetOptions, is_loop, retarget
 from actors.motion.formats.rigs import resolve_rig
 from learner.errors import SfvError
+
+FILE_REPORT = "file"  # the report's key for the file's frame counts and tolerated quirks (`Bvh.file_report`)
+log = logging.getLogger("sfv.bvh")
+_warned: set[str] = set()
 
 
 def own_export_units(bvh: Bvh) -> str | None:
@@ -30,21 +35,33 @@ def own_export_units(bvh: Bvh) -> str | None:
 
 
 def import_bvh(path: str | os.PathLike, rig: str = "auto", options: RetargetOptions | None = None) -> tuple[ReferenceMotion, dict]:
-    """(motion, report). Any fault is one SfvError line naming the file."""
+    """(motion, report): the retargeting's report with the file's frame counts and the quirks the
+    reader tolerated under `file`. Any fault is one SfvError line naming the file."""
     options = options or RetargetOptions()
     path = Path(path)
     try:
         bvh = read_bvh(path)
     except SfvError as exc:
         raise MotionFormatError(str(exc)) from None
+    if "frame_count" in bvh.quirks:
+        _warn_once(path, f"{path}: {bvh.quirks['frame_count']} (the whole frames are used)")
     names = [j.name for j in bvh.joints]
     rig_map = resolve_rig(rig, names, path)
     units = own_export_units(bvh) if rig_map.name == "sfv" else None
     if units is not None and (options.up, options.forward, options.units) == (None, None, None):
         motion = bvh_to_motion(bvh, units, path.stem, path)
         motion.loop = is_loop(motion.root_pos, motion.root_rot, motion.joint_rot) if options.loop is None else options.loop
-        return motion, {"rig": "sfv", "units": units, "exact": True, "loop": motion.loop}
-    return retarget(bvh, rig_map, options, path, path.stem)
+        return motion, {"rig": "sfv", "units": units, "exact": True, "loop": motion.loop, FILE_REPORT: bvh.file_report()}
+    motion, report = retarget(bvh, rig_map, options, path, path.stem)
+    return motion, {**report, FILE_REPORT: bvh.file_report()}
+
+
+def _warn_once(path: Path, message: str) -> None:
+    """One line per file and process (a run loads its motion more than once)."""
+    key = str(path.resolve())
+    if key not in _warned:
+        _warned.add(key)
+        log.warning(message)
 
 
 def load_bvh_clip(path: str | os.PathLike) -> ReferenceMotion:

@@ -8,7 +8,8 @@ that only give a bone its rest direction: `right_wrist` / `left_wrist` (the fore
 target names are simply not read: because the retargeter uses global rotations, a collar,
 an extra spine joint or a finger folds into its mapped parent by construction.
 
-Presets (`RIG_PRESETS`), matched case-insensitively after the rig's prefix:
+Presets (`RIG_PRESETS`), matched case-insensitively after the rig's prefix, spaces in names ignored
+(`Left UpLeg`, `Character1 Hips`):
 - `sfv`: this project's own export (`sfv export --bvh`, `actors/motion/formats/bvh.py`).
 - `cmu`: the cgspeed conversion of the CMU database (hip, abdomen, chest, neck, head, rCollar,
   rShldr, rForeArm, rHand, rButtock, rThigh, rShin, rFoot, ...).
@@ -73,7 +74,8 @@ class RigPreset:
             match = re.match(self.prefix, name, re.IGNORECASE) if self.prefix else None
             if self.prefix and not match:
                 continue
-            stripped.setdefault(name[match.end():].lower() if match else name.lower(), name)
+            # Exporters put spaces in names (`Left UpLeg`, `mixamorig: Hips`): matched without them.
+            stripped.setdefault(re.sub(r"\s+", "", name[match.end():] if match else name).lower(), name)
         found = {}
         for target, candidates in self.names.items():
             hit = next((stripped[c] for c in candidates if c in stripped), None)
@@ -105,7 +107,7 @@ RIG_PRESETS: tuple[RigPreset, ...] = (
                                    "shoulder": ("{s}_shoulder",), "elbow": ("{s}_elbow",)}),
     }),
     RigPreset("mixamo", r"mixamorig\d*:", _HUMANIK),
-    RigPreset("motionbuilder", r"character\d*_", _HUMANIK),
+    RigPreset("motionbuilder", r"character\d*[_\s]", _HUMANIK),
     RigPreset("cmu", "", {
         "root": ("hip", "hips"), "chest": ("chest",), "neck": ("neck",), "head": ("head",),
         **_sided("r", "l", {"hip": ("{s}thigh",), "knee": ("{s}shin",), "ankle": ("{s}foot",),

@@ -137,3 +137,15 @@ def test_runs_are_read_from_best_pt_unless_latest_is_asked(evaluated_run):
         np.testing.assert_array_equal(weights[key], value.numpy())
     with pytest.raises(SfvError, match="--checkpoint"):
         run_checkpoint(out, "oldest")
+
+
+def test_eval_and_export_choose_the_checkpoint(evaluated_run, tmp_path, capsys):
+    from services.cli import main
+
+    out, _ = evaluated_run
+    assert main(["eval", str(out), "--episodes", "1"]) == 0
+    assert json.loads(capsys.readouterr().out)["policy"] == f"{out.name} (best.pt)"
+    assert main(["eval", str(out), "--episodes", "1", "--checkpoint", "latest"]) == 0
+    assert json.loads(capsys.readouterr().out)["policy"].startswith(f"{out.name} (checkpoint_")
+    assert main(["export", str(out), "--onnx", str(tmp_path / "p.onnx"), "--checkpoint", "best"]) == 0
+    assert json.loads(capsys.readouterr().out)["max_abs_diff_vs_checkpoint"] < 1e-4

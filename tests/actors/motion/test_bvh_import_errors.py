@@ -10,25 +10,32 @@ from services.cli import main
 from tests.foreign_rig import MIXAMO_NAMES, foreign_bvh_text
 
 
-def _drop_last_frame(text: str) -> str:
-    return text.rstrip("\n").rsplit("\n", 1)[0] + "\n"
+def _cut_last_frame(text: str) -> str:
+    """A partial last frame: its line cut after a few values (a whole frame missing is tolerated)."""
+    head, last = text.rstrip("\n").rsplit("\n", 1)
+    return head + "\n" + " ".join(last.split()[:5]) + "\n"
 
 
-def _nan_in_frame(text: str) -> str:
-    head, frames = text.split("Frame Time:", 1)
-    lines = frames.split("\n")
-    values = lines[5].split()
-    values[7] = "nan"
-    lines[5] = " ".join(values)
-    return head + "Frame Time:" + "\n".join(lines)
+def _value_in_frame(row: int, column: int, value: str):
+    def mutate(text: str) -> str:
+        head, frames = text.split("Frame Time:", 1)
+        lines = frames.split("\n")
+        values = lines[row].split()
+        values[column] = value
+        lines[row] = " ".join(values)
+        return head + "Frame Time:" + "\n".join(lines)
+
+    return mutate
 
 
 BROKEN = [
     ("truncated hierarchy", lambda t: t[: t.index("mixamorig:LeftUpLeg") + 40], "unexpected end of file"),
-    ("truncated motion", _drop_last_frame, "MOTION holds"),
-    ("channel count", lambda t: t.replace("CHANNELS 3 Zrotation Yrotation Xrotation", "CHANNELS 2 Zrotation Yrotation", 1), "MOTION holds"),
+    ("truncated motion", _cut_last_frame, "a partial frame"),
+    ("channel count", lambda t: t.replace("CHANNELS 3 Zrotation Yrotation Xrotation", "CHANNELS 2 Zrotation Yrotation", 1), "a partial frame"),
+    ("channels listed", lambda t: t.replace("CHANNELS 3 Zrotation Yrotation Xrotation", "CHANNELS 3 Zrotation Yrotation", 1), "CHANNELS says 3 but lists 2"),
+    ("not a number", _value_in_frame(3, 4, "abc"), "'abc' is not a number"),
     ("bad channel", lambda t: t.replace("CHANNELS 3 Zrotation", "CHANNELS 3 Wrotation", 1), "bad channels"),
-    ("nan", _nan_in_frame, "holds NaN"),
+    ("nan", _value_in_frame(5, 7, "nan"), "holds NaN"),
     ("garbled frame time", lambda t: t.replace("Frame Time: ", "Frame Time: 0*"), "is not a number"),
     ("zero frame time", lambda t: re.sub(r"Frame Time: \S+", "Frame Time: 0.0", t), "Frame Time must be positive"),
     ("negative frame time", lambda t: t.replace("Frame Time: ", "Frame Time: -"), "Frame Time must be positive"),
