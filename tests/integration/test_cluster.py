@@ -116,6 +116,7 @@ def ray_head():
         shutil.rmtree(workdir, ignore_errors=True)
 
 
+@pytest.mark.slow
 def test_training_job_on_a_token_auth_cluster(ray_head, tmp_path):
     # The dashboard refuses job requests without the cluster token (401) or with another one (403).
     assert ray_head.api("/api/jobs/", token=None)[0] == 401

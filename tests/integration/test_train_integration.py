@@ -37,6 +37,7 @@ def ray_local():
     ray.shutdown()
 
 
+@pytest.mark.slow
 def test_two_workers_with_redis_asi_then_resume(tmp_path, redis_url, ray_local):
     out = tmp_path / "run"
     record = Trainer(small_config(out, redis_url=redis_url), progress=False).run()

@@ -26,6 +26,7 @@ def train_tiny_expert(clip: str, out):
         trainer.run()
 
 
+@pytest.mark.slow
 def test_two_tiny_experts_distilled_then_one_task_iteration(tmp_path, capsys):
     from services.cli import main
 

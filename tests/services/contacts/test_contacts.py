@@ -58,6 +58,7 @@ def test_the_shipped_model_is_checked_and_finds_contacts_on_held_out_clips(tmp_p
         FootContactEstimator(tampered)
 
 
+@pytest.mark.slow
 def test_retraining_writes_a_model_whose_onnx_answers_like_torch(tmp_path):
     import onnxruntime as ort
     import torch

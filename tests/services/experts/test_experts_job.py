@@ -87,6 +87,7 @@ def test_table_of_a_tiny_expert_and_its_mirror(tmp_path):
     assert (tmp_path / "table" / TABLE_MD).is_file()
 
 
+@pytest.mark.slow
 def test_job_runs_its_trainings_as_ray_tasks(tmp_path):
     """parallel > 1: one Ray task per training, both finished, each a standard run directory."""
     out = tmp_path / "experts"
