@@ -24,33 +24,33 @@ _sym_db = _symbol_database.Default()
 
 
 
-DESCRIPTOR = _descriptor_pool.Default().AddSerializedFile(b'\n\x0fproto/asi.proto\x12\nsfv.asi.v1\"\xaa\x03\n\x10\x43reateJobRequest\x12\x0e\n\x06job_id\x18\x01 \x01(\t\x12\x11\n\tstate_dim\x18\x02 \x01(\r\x12\x16\n\x0enum_components\x18\x03 \x01(\r\x12\x0e\n\x06phases\x18\x04 \x03(\x01\x12\x19\n\x11initial_means_f64\x18\x05 \x01(\x0c\x12\x18\n\x10initial_stds_f64\x18\x06 \x01(\x0c\x12\x1c\n\x14reference_states_f32\x18\x07 \x01(\x0c\x12\x18\n\x10reference_phases\x18\x08 \x03(\x01\x12\x16\n\tstep_size\x18\t \x01(\x01H\x00\x88\x01\x01\x12 \n\x13\x65pisodes_per_update\x18\n \x01(\rH\x01\x88\x01\x01\x12\x1e\n\x11max_step_fraction\x18\x0b \x01(\x01H\x02\x88\x01\x01\x12\x14\n\x07min_std\x18\x0c \x01(\x01H\x03\x88\x01\x01\x12&\n\x08\x62\x61seline\x18\r \x01(\x0e\x32\x14.sfv.asi.v1.BaselineB\x0c\n\n_step_sizeB\x16\n\x14_episodes_per_updateB\x14\n\x12_max_step_fractionB\n\n\x08_min_std\"\x84\x01\n\x07JobInfo\x12\x0e\n\x06job_id\x18\x01 \x01(\t\x12\x0f\n\x07version\x18\x02 \x01(\x04\x12\x0f\n\x07\x63reated\x18\x03 \x01(\x08\x12\x11\n\tstate_dim\x18\x04 \x01(\r\x12\x16\n\x0enum_components\x18\x05 \x01(\r\x12\x1c\n\x14num_reference_frames\x18\x06 \x01(\r\"p\n\rSampleRequest\x12\x0e\n\x06job_id\x18\x01 \x01(\t\x12$\n\x04mode\x18\x02 \x01(\x0e\x32\x16.sfv.asi.v1.SampleMode\x12\r\n\x05\x63ount\x18\x03 \x01(\r\x12\x11\n\x04seed\x18\x04 \x01(\x04H\x00\x88\x01\x01\x42\x07\n\x05_seed\"f\n\x0bSampleReply\x12\x12\n\nstates_f32\x18\x01 \x01(\x0c\x12\x0e\n\x06phases\x18\x02 \x03(\x01\x12\x12\n\ncomponents\x18\x03 \x03(\x05\x12\x0e\n\x06\x66rames\x18\x04 \x03(\x05\x12\x0f\n\x07version\x18\x05 \x01(\x04\"\x90\x01\n\rReportRequest\x12\x0e\n\x06job_id\x18\x01 \x01(\t\x12\x1a\n\x12initial_states_f32\x18\x02 \x01(\x0c\x12\x12\n\ncomponents\x18\x03 \x03(\x05\x12\x0f\n\x07returns\x18\x04 \x03(\x01\x12\x1b\n\x0epolicy_version\x18\x05 \x01(\x04H\x00\x88\x01\x01\x42\x11\n\x0f_policy_version\"[\n\x0bReportReply\x12\x10\n\x08\x61\x63\x63\x65pted\x18\x01 \x01(\r\x12\x0f\n\x07version\x18\x02 \x01(\x04\x12\x0f\n\x07updated\x18\x03 \x01(\x08\x12\x18\n\x10pending_episodes\x18\x04 \x01(\r\"(\n\x16GetDistributionRequest\x12\x0e\n\x06job_id\x18\x01 \x01(\t\"\xcd\x02\n\x0c\x44istribution\x12\x11\n\tmeans_f64\x18\x01 \x01(\x0c\x12\x10\n\x08stds_f64\x18\x02 \x01(\x0c\x12\x0e\n\x06phases\x18\x03 \x03(\x01\x12\x0f\n\x07version\x18\x04 \x01(\x04\x12\x18\n\x10pending_episodes\x18\x05 \x01(\r\x12\x11\n\tstate_dim\x18\x06 \x01(\r\x12\x16\n\x0enum_components\x18\x07 \x01(\r\x12\x1b\n\x0epolicy_version\x18\x08 \x01(\x04H\x00\x88\x01\x01\x12\x11\n\tstep_size\x18\t \x01(\x01\x12\x1b\n\x13\x65pisodes_per_update\x18\n \x01(\r\x12\x19\n\x11max_step_fraction\x18\x0b \x01(\x01\x12\x0f\n\x07min_std\x18\x0c \x01(\x01\x12&\n\x08\x62\x61seline\x18\r \x01(\x0e\x32\x14.sfv.asi.v1.BaselineB\x11\n\x0f_policy_version*\'\n\nSampleMode\x12\x07\n\x03\x41SI\x10\x00\x12\x07\n\x03RSI\x10\x01\x12\x07\n\x03\x46SI\x10\x02*(\n\x08\x42\x61seline\x12\x12\n\x0e\x43OMPONENT_MEAN\x10\x00\x12\x08\n\x04NONE\x10\x01\x32\xb7\x02\n\x13InitialStateService\x12>\n\tCreateJob\x12\x1c.sfv.asi.v1.CreateJobRequest\x1a\x13.sfv.asi.v1.JobInfo\x12I\n\x13SampleInitialStates\x12\x19.sfv.asi.v1.SampleRequest\x1a\x17.sfv.asi.v1.SampleReply\x12\x44\n\x0eReportEpisodes\x12\x19.sfv.asi.v1.ReportRequest\x1a\x17.sfv.asi.v1.ReportReply\x12O\n\x0fGetDistribution\x12\".sfv.asi.v1.GetDistributionRequest\x1a\x18.sfv.asi.v1.Distributionb\x06proto3')
+DESCRIPTOR = _descriptor_pool.Default().AddSerializedFile(b'\n\x0fproto/asi.proto\x12\nsfv.asi.v1\"\xd4\x03\n\x10\x43reateJobRequest\x12\x0e\n\x06job_id\x18\x01 \x01(\t\x12\x11\n\tstate_dim\x18\x02 \x01(\r\x12\x16\n\x0enum_components\x18\x03 \x01(\r\x12\x0e\n\x06phases\x18\x04 \x03(\x01\x12\x19\n\x11initial_means_f64\x18\x05 \x01(\x0c\x12\x18\n\x10initial_stds_f64\x18\x06 \x01(\x0c\x12\x1c\n\x14reference_states_f32\x18\x07 \x01(\x0c\x12\x18\n\x10reference_phases\x18\x08 \x03(\x01\x12\x16\n\tstep_size\x18\t \x01(\x01H\x00\x88\x01\x01\x12 \n\x13\x65pisodes_per_update\x18\n \x01(\rH\x01\x88\x01\x01\x12\x1e\n\x11max_step_fraction\x18\x0b \x01(\x01H\x02\x88\x01\x01\x12\x14\n\x07min_std\x18\x0c \x01(\x01H\x03\x88\x01\x01\x12&\n\x08\x62\x61seline\x18\r \x01(\x0e\x32\x14.sfv.asi.v1.Baseline\x12\x18\n\x0bupdate_rule\x18\x0e \x01(\tH\x04\x88\x01\x01\x42\x0c\n\n_step_sizeB\x16\n\x14_episodes_per_updateB\x14\n\x12_max_step_fractionB\n\n\x08_min_stdB\x0e\n\x0c_update_rule\"\x84\x01\n\x07JobInfo\x12\x0e\n\x06job_id\x18\x01 \x01(\t\x12\x0f\n\x07version\x18\x02 \x01(\x04\x12\x0f\n\x07\x63reated\x18\x03 \x01(\x08\x12\x11\n\tstate_dim\x18\x04 \x01(\r\x12\x16\n\x0enum_components\x18\x05 \x01(\r\x12\x1c\n\x14num_reference_frames\x18\x06 \x01(\r\"p\n\rSampleRequest\x12\x0e\n\x06job_id\x18\x01 \x01(\t\x12$\n\x04mode\x18\x02 \x01(\x0e\x32\x16.sfv.asi.v1.SampleMode\x12\r\n\x05\x63ount\x18\x03 \x01(\r\x12\x11\n\x04seed\x18\x04 \x01(\x04H\x00\x88\x01\x01\x42\x07\n\x05_seed\"f\n\x0bSampleReply\x12\x12\n\nstates_f32\x18\x01 \x01(\x0c\x12\x0e\n\x06phases\x18\x02 \x03(\x01\x12\x12\n\ncomponents\x18\x03 \x03(\x05\x12\x0e\n\x06\x66rames\x18\x04 \x03(\x05\x12\x0f\n\x07version\x18\x05 \x01(\x04\"\x90\x01\n\rReportRequest\x12\x0e\n\x06job_id\x18\x01 \x01(\t\x12\x1a\n\x12initial_states_f32\x18\x02 \x01(\x0c\x12\x12\n\ncomponents\x18\x03 \x03(\x05\x12\x0f\n\x07returns\x18\x04 \x03(\x01\x12\x1b\n\x0epolicy_version\x18\x05 \x01(\x04H\x00\x88\x01\x01\x42\x11\n\x0f_policy_version\"[\n\x0bReportReply\x12\x10\n\x08\x61\x63\x63\x65pted\x18\x01 \x01(\r\x12\x0f\n\x07version\x18\x02 \x01(\x04\x12\x0f\n\x07updated\x18\x03 \x01(\x08\x12\x18\n\x10pending_episodes\x18\x04 \x01(\r\"(\n\x16GetDistributionRequest\x12\x0e\n\x06job_id\x18\x01 \x01(\t\"\xe2\x02\n\x0c\x44istribution\x12\x11\n\tmeans_f64\x18\x01 \x01(\x0c\x12\x10\n\x08stds_f64\x18\x02 \x01(\x0c\x12\x0e\n\x06phases\x18\x03 \x03(\x01\x12\x0f\n\x07version\x18\x04 \x01(\x04\x12\x18\n\x10pending_episodes\x18\x05 \x01(\r\x12\x11\n\tstate_dim\x18\x06 \x01(\r\x12\x16\n\x0enum_components\x18\x07 \x01(\r\x12\x1b\n\x0epolicy_version\x18\x08 \x01(\x04H\x00\x88\x01\x01\x12\x11\n\tstep_size\x18\t \x01(\x01\x12\x1b\n\x13\x65pisodes_per_update\x18\n \x01(\r\x12\x19\n\x11max_step_fraction\x18\x0b \x01(\x01\x12\x0f\n\x07min_std\x18\x0c \x01(\x01\x12&\n\x08\x62\x61seline\x18\r \x01(\x0e\x32\x14.sfv.asi.v1.Baseline\x12\x13\n\x0bupdate_rule\x18\x0e \x01(\tB\x11\n\x0f_policy_version*\'\n\nSampleMode\x12\x07\n\x03\x41SI\x10\x00\x12\x07\n\x03RSI\x10\x01\x12\x07\n\x03\x46SI\x10\x02*(\n\x08\x42\x61seline\x12\x12\n\x0e\x43OMPONENT_MEAN\x10\x00\x12\x08\n\x04NONE\x10\x01\x32\xb7\x02\n\x13InitialStateService\x12>\n\tCreateJob\x12\x1c.sfv.asi.v1.CreateJobRequest\x1a\x13.sfv.asi.v1.JobInfo\x12I\n\x13SampleInitialStates\x12\x19.sfv.asi.v1.SampleRequest\x1a\x17.sfv.asi.v1.SampleReply\x12\x44\n\x0eReportEpisodes\x12\x19.sfv.asi.v1.ReportRequest\x1a\x17.sfv.asi.v1.ReportReply\x12O\n\x0fGetDistribution\x12\".sfv.asi.v1.GetDistributionRequest\x1a\x18.sfv.asi.v1.Distributionb\x06proto3')
 
 _globals = globals()
 _builder.BuildMessageAndEnumDescriptors(DESCRIPTOR, _globals)
 _builder.BuildTopDescriptorsAndMessages(DESCRIPTOR, 'proto.asi_pb2', _globals)
 if not _descriptor._USE_C_DESCRIPTORS:
   DESCRIPTOR._loaded_options = None
-  _globals['_SAMPLEMODE']._serialized_start=1431
-  _globals['_SAMPLEMODE']._serialized_end=1470
-  _globals['_BASELINE']._serialized_start=1472
-  _globals['_BASELINE']._serialized_end=1512
+  _globals['_SAMPLEMODE']._serialized_start=1494
+  _globals['_SAMPLEMODE']._serialized_end=1533
+  _globals['_BASELINE']._serialized_start=1535
+  _globals['_BASELINE']._serialized_end=1575
   _globals['_CREATEJOBREQUEST']._serialized_start=32
-  _globals['_CREATEJOBREQUEST']._serialized_end=458
-  _globals['_JOBINFO']._serialized_start=461
-  _globals['_JOBINFO']._serialized_end=593
-  _globals['_SAMPLEREQUEST']._serialized_start=595
-  _globals['_SAMPLEREQUEST']._serialized_end=707
-  _globals['_SAMPLEREPLY']._serialized_start=709
-  _globals['_SAMPLEREPLY']._serialized_end=811
-  _globals['_REPORTREQUEST']._serialized_start=814
-  _globals['_REPORTREQUEST']._serialized_end=958
-  _globals['_REPORTREPLY']._serialized_start=960
-  _globals['_REPORTREPLY']._serialized_end=1051
-  _globals['_GETDISTRIBUTIONREQUEST']._serialized_start=1053
-  _globals['_GETDISTRIBUTIONREQUEST']._serialized_end=1093
-  _globals['_DISTRIBUTION']._serialized_start=1096
-  _globals['_DISTRIBUTION']._serialized_end=1429
-  _globals['_INITIALSTATESERVICE']._serialized_start=1515
-  _globals['_INITIALSTATESERVICE']._serialized_end=1826
+  _globals['_CREATEJOBREQUEST']._serialized_end=500
+  _globals['_JOBINFO']._serialized_start=503
+  _globals['_JOBINFO']._serialized_end=635
+  _globals['_SAMPLEREQUEST']._serialized_start=637
+  _globals['_SAMPLEREQUEST']._serialized_end=749
+  _globals['_SAMPLEREPLY']._serialized_start=751
+  _globals['_SAMPLEREPLY']._serialized_end=853
+  _globals['_REPORTREQUEST']._serialized_start=856
+  _globals['_REPORTREQUEST']._serialized_end=1000
+  _globals['_REPORTREPLY']._serialized_start=1002
+  _globals['_REPORTREPLY']._serialized_end=1093
+  _globals['_GETDISTRIBUTIONREQUEST']._serialized_start=1095
+  _globals['_GETDISTRIBUTIONREQUEST']._serialized_end=1135
+  _globals['_DISTRIBUTION']._serialized_start=1138
+  _globals['_DISTRIBUTION']._serialized_end=1492
+  _globals['_INITIALSTATESERVICE']._serialized_start=1578
+  _globals['_INITIALSTATESERVICE']._serialized_end=1889
 # @@protoc_insertion_point(module_scope)

@@ -24,7 +24,7 @@ COMPONENT_MEAN: Baseline
 NONE: Baseline
 
 class CreateJobRequest(_message.Message):
-    __slots__ = ("job_id", "state_dim", "num_components", "phases", "initial_means_f64", "initial_stds_f64", "reference_states_f32", "reference_phases", "step_size", "episodes_per_update", "max_step_fraction", "min_std", "baseline")
+    __slots__ = ("job_id", "state_dim", "num_components", "phases", "initial_means_f64", "initial_stds_f64", "reference_states_f32", "reference_phases", "step_size", "episodes_per_update", "max_step_fraction", "min_std", "baseline", "update_rule")
     JOB_ID_FIELD_NUMBER: _ClassVar[int]
     STATE_DIM_FIELD_NUMBER: _ClassVar[int]
     NUM_COMPONENTS_FIELD_NUMBER: _ClassVar[int]
@@ -38,6 +38,7 @@ class CreateJobRequest(_message.Message):
     MAX_STEP_FRACTION_FIELD_NUMBER: _ClassVar[int]
     MIN_STD_FIELD_NUMBER: _ClassVar[int]
     BASELINE_FIELD_NUMBER: _ClassVar[int]
+    UPDATE_RULE_FIELD_NUMBER: _ClassVar[int]
     job_id: str
     state_dim: int
     num_components: int
@@ -51,7 +52,8 @@ class CreateJobRequest(_message.Message):
     max_step_fraction: float
     min_std: float
     baseline: Baseline
-    def __init__(self, job_id: _Optional[str] = ..., state_dim: _Optional[int] = ..., num_components: _Optional[int] = ..., phases: _Optional[_Iterable[float]] = ..., initial_means_f64: _Optional[bytes] = ..., initial_stds_f64: _Optional[bytes] = ..., reference_states_f32: _Optional[bytes] = ..., reference_phases: _Optional[_Iterable[float]] = ..., step_size: _Optional[float] = ..., episodes_per_update: _Optional[int] = ..., max_step_fraction: _Optional[float] = ..., min_std: _Optional[float] = ..., baseline: _Optional[_Union[Baseline, str]] = ...) -> None: ...
+    update_rule: str
+    def __init__(self, job_id: _Optional[str] = ..., state_dim: _Optional[int] = ..., num_components: _Optional[int] = ..., phases: _Optional[_Iterable[float]] = ..., initial_means_f64: _Optional[bytes] = ..., initial_stds_f64: _Optional[bytes] = ..., reference_states_f32: _Optional[bytes] = ..., reference_phases: _Optional[_Iterable[float]] = ..., step_size: _Optional[float] = ..., episodes_per_update: _Optional[int] = ..., max_step_fraction: _Optional[float] = ..., min_std: _Optional[float] = ..., baseline: _Optional[_Union[Baseline, str]] = ..., update_rule: _Optional[str] = ...) -> None: ...
 
 class JobInfo(_message.Message):
     __slots__ = ("job_id", "version", "created", "state_dim", "num_components", "num_reference_frames")
@@ -128,7 +130,7 @@ class GetDistributionRequest(_message.Message):
     def __init__(self, job_id: _Optional[str] = ...) -> None: ...
 
 class Distribution(_message.Message):
-    __slots__ = ("means_f64", "stds_f64", "phases", "version", "pending_episodes", "state_dim", "num_components", "policy_version", "step_size", "episodes_per_update", "max_step_fraction", "min_std", "baseline")
+    __slots__ = ("means_f64", "stds_f64", "phases", "version", "pending_episodes", "state_dim", "num_components", "policy_version", "step_size", "episodes_per_update", "max_step_fraction", "min_std", "baseline", "update_rule")
     MEANS_F64_FIELD_NUMBER: _ClassVar[int]
     STDS_F64_FIELD_NUMBER: _ClassVar[int]
     PHASES_FIELD_NUMBER: _ClassVar[int]
@@ -142,6 +144,7 @@ class Distribution(_message.Message):
     MAX_STEP_FRACTION_FIELD_NUMBER: _ClassVar[int]
     MIN_STD_FIELD_NUMBER: _ClassVar[int]
     BASELINE_FIELD_NUMBER: _ClassVar[int]
+    UPDATE_RULE_FIELD_NUMBER: _ClassVar[int]
     means_f64: bytes
     stds_f64: bytes
     phases: _containers.RepeatedScalarFieldContainer[float]
@@ -155,4 +158,5 @@ class Distribution(_message.Message):
     max_step_fraction: float
     min_std: float
     baseline: Baseline
-    def __init__(self, means_f64: _Optional[bytes] = ..., stds_f64: _Optional[bytes] = ..., phases: _Optional[_Iterable[float]] = ..., version: _Optional[int] = ..., pending_episodes: _Optional[int] = ..., state_dim: _Optional[int] = ..., num_components: _Optional[int] = ..., policy_version: _Optional[int] = ..., step_size: _Optional[float] = ..., episodes_per_update: _Optional[int] = ..., max_step_fraction: _Optional[float] = ..., min_std: _Optional[float] = ..., baseline: _Optional[_Union[Baseline, str]] = ...) -> None: ...
+    update_rule: str
+    def __init__(self, means_f64: _Optional[bytes] = ..., stds_f64: _Optional[bytes] = ..., phases: _Optional[_Iterable[float]] = ..., version: _Optional[int] = ..., pending_episodes: _Optional[int] = ..., state_dim: _Optional[int] = ..., num_components: _Optional[int] = ..., policy_version: _Optional[int] = ..., step_size: _Optional[float] = ..., episodes_per_update: _Optional[int] = ..., max_step_fraction: _Optional[float] = ..., min_std: _Optional[float] = ..., baseline: _Optional[_Union[Baseline, str]] = ..., update_rule: _Optional[str] = ...) -> None: ...

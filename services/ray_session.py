@@ -71,7 +71,10 @@ def start_local_ray(num_cpus: int | None = None, log_to_driver: bool | None = No
             return
         except Exception as exc:  # Ray raises a bare Exception (or RuntimeError) for start timeouts
             if attempt == attempts:
-                raise
+                log.error("local Ray did not start", exc_info=True)  # the traceback goes to the run's log file
+                ray.shutdown()
+                first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+                raise SfvError(f"local Ray did not start in {attempts} attempts ({first}); Ray's logs: /tmp/ray/session_latest/logs") from None
             log.warning("local Ray did not start (%s); trying again", str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
             ray.shutdown()
 

@@ -56,6 +56,7 @@ class Distribution(NamedTuple):
     phases: np.ndarray  # (k,) float64
     version: int
     pending_episodes: int
+    update_rule: str = "gradient"
 
 
 class _RetriesExhausted(Exception):
@@ -153,7 +154,7 @@ class ASIClient:
                    initial_means: np.ndarray | None = None, initial_stds: np.ndarray | None = None,
                    step_size: float | None = None, episodes_per_update: int | None = None,
                    max_step_fraction: float | None = None, min_std: float | None = None,
-                   baseline: str = "component_mean") -> JobInfo:
+                   baseline: str = "component_mean", update_rule: str | None = None) -> JobInfo:
         """Create the job (or resume it: same dims -> its current version, created=False).
 
         reference_states (F, D): the clip's states; defaults follow the paper (means at the
@@ -172,7 +173,7 @@ class ASIClient:
             reference_phases=[] if reference_phases is None else np.asarray(reference_phases, np.float64),
             baseline=BASELINES[baseline])
         for name, value in (("step_size", step_size), ("episodes_per_update", episodes_per_update),
-                            ("max_step_fraction", max_step_fraction), ("min_std", min_std)):
+                            ("max_step_fraction", max_step_fraction), ("min_std", min_std), ("update_rule", update_rule)):
             if value is not None:
                 setattr(request, name, value)
         try:
@@ -242,4 +243,5 @@ class ASIClient:
         self._last_version = reply.version
         return Distribution(np.frombuffer(reply.means_f64, "<f8").reshape(shape).copy(),
                             np.frombuffer(reply.stds_f64, "<f8").reshape(shape).copy(),
-                            np.asarray(reply.phases, np.float64), reply.version, reply.pending_episodes)
+                            np.asarray(reply.phases, np.float64), reply.version, reply.pending_episodes,
+                            reply.update_rule or "gradient")

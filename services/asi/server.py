@@ -25,7 +25,14 @@ from actors.rollout.asi_client import BASELINES as BASELINE_ENUMS
 from actors.rollout.asi_client import MAX_MESSAGE_BYTES
 from learner.errors import SfvError
 from proto import asi_pb2, asi_pb2_grpc
-from services.asi.distribution import InitialStateDistribution, UpdateConfig, evenly_spaced_phases, nearest_frames, reference_std
+from services.asi.distribution import (
+    UPDATE_RULES,
+    InitialStateDistribution,
+    UpdateConfig,
+    evenly_spaced_phases,
+    nearest_frames,
+    reference_std,
+)
 from services.asi.store import ASIStore, EpisodeBatch, InMemoryStore, JobSpec, StoreUnavailable, TooManyJobs
 
 log = logging.getLogger(__name__)
@@ -210,7 +217,10 @@ class InitialStateServicer(asi_pb2_grpc.InitialStateServiceServicer):
         baseline = BASELINE_NAMES.get(request.baseline)
         if baseline is None:
             raise _invalid(f"baseline {request.baseline} unknown")
-        return UpdateConfig(float(step_size), int(per_update), float(fraction), float(min_std), baseline)
+        rule = request.update_rule if request.HasField("update_rule") else defaults.rule
+        if rule not in UPDATE_RULES:
+            raise _invalid(f"update_rule {rule[:40]!r} unknown; expected one of {', '.join(UPDATE_RULES)}")
+        return UpdateConfig(float(step_size), int(per_update), float(fraction), float(min_std), baseline, rule)
 
     # --- SampleInitialStates -----------------------------------------------------------------
     @_handled
@@ -269,7 +279,7 @@ class InitialStateServicer(asi_pb2_grpc.InitialStateServiceServicer):
             phases=spec.phases, version=params.version, pending_episodes=params.pending_episodes,
             state_dim=spec.state_dim, num_components=spec.num_components, step_size=config.step_size,
             episodes_per_update=config.episodes_per_update, max_step_fraction=config.max_step_fraction,
-            min_std=config.min_std, baseline=BASELINE_ENUMS[config.baseline])
+            min_std=config.min_std, baseline=BASELINE_ENUMS[config.baseline], update_rule=config.rule)
         if params.policy_version is not None:
             reply.policy_version = params.policy_version
         return reply

@@ -66,7 +66,7 @@ class ASIConnection:
             stds = np.maximum(c.asi_initial_std_scale * reference_std(np.asarray(reference_states, np.float64), 1e-3), 1e-3)
         return self.client.create_job(
             reference_states, reference_phases, num_components=c.asi_components, initial_stds=stds,
-            step_size=c.asi_step_size, episodes_per_update=c.asi_episodes_per_update,
+            step_size=c.asi_step_size, episodes_per_update=c.asi_episodes_per_update, update_rule=c.asi_update_rule,
         )
 
     def __exit__(self, *exc) -> None:

@@ -69,6 +69,7 @@ class Trainer:
         self.samples = 0
         self.iteration = 0
         self.best_eval: float | None = None  # the best periodic evaluation's normalised return (best.pt)
+        self.asi_drift: ASIDrift | None = None
 
     # ------------------------------------------------------------------ setup
     def _prepare_run_dir(self) -> dict | None:
@@ -160,6 +161,7 @@ class Trainer:
                               handover_share=config.handover_share)
             self.runner = make_runner(config, self.worker_class, self.faults)
             self.runner.start(spec)
+            self.asi_drift = ASIDrift(asi.client) if config.init == "asi" else None
             metrics = MetricsLog(self.run_dir, resumed_at_samples=self.samples if checkpoint is not None else None)
             try:
                 return self._loop(learner, metrics, max(asi_version, info.version))
@@ -207,6 +209,8 @@ class Trainer:
             self.iteration += 1
             asi_version = max(asi_version, batch["asi_version"])
             record = self._record(batch, losses, n, time.perf_counter() - t0, t_sample, asi_version)
+            if self.asi_drift is not None:
+                record.update(self.asi_drift(asi_version))
             record.update(coverage)
             if evaluator.due(samples_before, self.samples, last=self.samples >= config.samples):
                 try:  # the current weights on strict episodes; figures land in metrics.jsonl and TensorBoard
@@ -318,6 +322,31 @@ class Trainer:
             plot_learning_curves([self.run_dir], self.run_dir / "learning_curve.png")
         except Exception as exc:  # a plot must never stop training
             log.warning("learning-curve plot failed: %s", exc)
+
+
+class ASIDrift:
+    """How far ASI's Gaussians have moved from where this process first saw them: after each new
+    distribution version, `asi/mean_shift_sigma` (mean over components and dimensions of
+    |mu - mu_0| / sigma_0) and `asi/std_ratio` (mean sigma / sigma_0). One RPC per new version."""
+
+    def __init__(self, client):
+        self.client = client
+        self.version = -1
+        self.first = None
+
+    def __call__(self, version: int) -> dict:
+        if self.client is None or version == self.version:
+            return {}
+        try:
+            dist = self.client.get_distribution()
+        except SfvError as exc:  # a figure for the log: never worth stopping training for
+            log.warning("ASI distribution not read: %s", exc)
+            return {}
+        self.version = version
+        if self.first is None:
+            self.first = dist
+        shift = np.abs(dist.means - self.first.means) / self.first.stds
+        return {"asi/mean_shift_sigma": float(shift.mean()), "asi/std_ratio": float((dist.stds / self.first.stds).mean())}
 
 
 def fall_cause_shares(causes: np.ndarray | None) -> dict:

@@ -137,6 +137,7 @@ def bad_requests():
         dict(initial_stds_f64=(-np.ones(D)).tobytes()), dict(initial_stds_f64=np.ones(D + 1).tobytes()),
         dict(step_size=float("nan")), dict(step_size=-1.0), dict(episodes_per_update=0),
         dict(episodes_per_update=10**9), dict(max_step_fraction=-0.1), dict(min_std=0.0), dict(baseline=7),
+        dict(update_rule="adam"),
     ]
     cases = [("CreateJob", create_request(**{"job_id": "bad", **c}), INVALID) for c in create]
     cases += [
@@ -243,3 +244,23 @@ def test_embedded_server_needs_nothing_started():
             np.testing.assert_array_equal(client.sample("fsi", 2).states, states[[0, 0]])
     with pytest.raises(SfvError):
         embedded.address
+
+
+def test_the_natural_rule_steps_in_units_of_sigma(server):
+    """update_rule "natural" goes over the wire, is reported back, and the server's step is the
+    numpy one: each mean moves by about alpha x sigma x corr(z, A) where the returns favour a side."""
+    states, phases = reference_clip()
+    client = ASIClient(server.address, "natural")
+    client.create_job(states, phases, num_components=K, episodes_per_update=400, step_size=0.2, update_rule="natural")
+    start = client.get_distribution()
+    assert start.update_rule == "natural"
+    draw = client.sample("asi", 400, seed=5)
+    returns = draw.states[:, 1].astype(np.float64)  # higher is better along dimension 1
+    assert client.report(draw.states, draw.components, returns) == 1
+    after = client.get_distribution()
+    expected = InitialStateDistribution(start.phases, start.means, np.log(start.stds)).apply_update(
+        draw.states, draw.components, returns, UpdateConfig(step_size=0.2, episodes_per_update=400, rule="natural"))
+    np.testing.assert_allclose(after.means, expected.means, rtol=1e-12)
+    moved = (after.means - start.means)[:, 1] / start.stds[:, 1]
+    assert np.all(moved > 0.05) and np.all(moved < 0.5)  # a visible step toward higher returns, about alpha sigma (the paper's rule: < 1e-3)
+    client.close()

@@ -136,3 +136,21 @@ def test_component_baseline_is_per_component_mean():
     np.testing.assert_array_equal(component_baseline(returns, components, 3, "none"), 0)
     with pytest.raises(ValueError):
         component_baseline(returns, components, 3, "global")
+
+
+def test_natural_step_is_scale_free_and_matches_hand_computation():
+    # component mean baseline: advantages (+1, -1, 0), std over the batch sqrt(2/3) -> A = (1, -1, 0) / sqrt(2/3)
+    # component 0 (n = 2): mean z*A = ((1, 1) - (-1, 0)) / 2 / sqrt(2/3) = (1, .5) / sqrt(2/3); times sigma (1, 2)
+    #   mean (z^2 - 1) A / 2 = ((0, 0) - (0, -1)) / 2 / 2 / sqrt(2/3) = (0, .25) / sqrt(2/3)
+    # component 1: A = 0 -> no step
+    step = hand_case().natural_step(STATES, COMPONENTS, RETURNS, "component_mean")
+    a = 1 / np.sqrt(2 / 3)
+    np.testing.assert_allclose(step.means, [[a, a], [0, 0]], atol=1e-12)
+    np.testing.assert_allclose(step.log_stds, [[0, 0.25 * a], [0, 0]], atol=1e-12)
+    # Returns scaled by 1000 and shifted: the same step (the paper's would be 1000x larger).
+    same = hand_case().natural_step(STATES, COMPONENTS, 1000 * RETURNS + 7, "component_mean")
+    np.testing.assert_allclose(same.means, step.means, atol=1e-9)
+    flat = hand_case().natural_step(STATES, COMPONENTS, np.full(3, 2.0), "component_mean")
+    assert not flat.means.any() and not flat.log_stds.any()  # no information, no step
+    moved = hand_case().apply_update(STATES, COMPONENTS, RETURNS, UpdateConfig(step_size=0.1, max_step_fraction=0.0, rule="natural"))
+    np.testing.assert_allclose(moved.means - MEANS, 0.1 * step.means, atol=1e-12)

@@ -1,0 +1,37 @@
+"""`asi/mean_shift_sigma` and `asi/std_ratio` in the training metrics: how far ASI moved."""
+from __future__ import annotations
+
+import json
+
+from services.training.config import TrainConfig
+from services.training.driver import Trainer
+from services.training.run_dir import METRICS_FILE
+
+
+def drift(tmp_path, rule: str, step: float) -> list[tuple[int, float, float]]:
+    config = TrainConfig(out=str(tmp_path / rule), workers=1, envs_per_worker=8, samples=6 * 512, runner="in_process",
+                         torch_threads=1, eval_every=0, plot_every=0, asi_episodes_per_update=20,
+                         asi_update_rule=rule, asi_step_size=step)
+    config.ppo.batch_size = config.ppo.minibatch_size = 512
+    config.ppo.policy_hidden = config.ppo.value_hidden = (32,)
+    Trainer(config, progress=False).run()
+    rows = [json.loads(line) for line in (tmp_path / rule / METRICS_FILE).read_text().splitlines()]
+    return [(r["asi_version"], r["asi/mean_shift_sigma"], r["asi/std_ratio"]) for r in rows if "asi/mean_shift_sigma" in r]
+
+
+def test_the_natural_rule_moves_asi_by_a_fraction_of_sigma(tmp_path):
+    natural = drift(tmp_path, "natural", 0.2)
+    assert natural[0][1:] == (0.0, 1.0)  # measured from the first distribution this process saw
+    assert len({v for v, _, _ in natural}) == len(natural) >= 3  # a row per new version, not per iteration
+    assert natural[-1][0] >= 3  # several steps taken
+    assert 0.05 < natural[-1][1] < 0.5 * natural[-1][0]  # moved, and by less than the 0.5 sigma safeguard per step
+    assert 0.9 < natural[-1][2] < 1.2
+
+
+def test_rsi_runs_have_no_asi_figures(tmp_path):
+    config = TrainConfig(out=str(tmp_path / "rsi"), workers=1, envs_per_worker=4, init="rsi", samples=512,
+                         runner="in_process", torch_threads=1, eval_every=0, plot_every=0)
+    config.ppo.batch_size = config.ppo.minibatch_size = 512
+    config.ppo.policy_hidden = config.ppo.value_hidden = (16,)
+    Trainer(config, progress=False).run()
+    assert "asi/mean_shift_sigma" not in (tmp_path / "rsi" / METRICS_FILE).read_text()
