@@ -152,8 +152,8 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default="bench/results/adaptive_sampling.json")
     parser.add_argument("--report-only", action="store_true", help="write OUT from the runs as they are, training nothing")
     args = parser.parse_args(argv)
-    from actors.imitation_env import ImitationEnv
-    from actors.motion_io import load_motion
+    from actors.envs.imitation_env import ImitationEnv
+    from actors.motion.formats.io import load_motion
     from services.training.run_dir import write_json_atomic
 
     started = time.time()

@@ -7,9 +7,9 @@
   sole is within 4 cm of the floor), so both feet land on the box top and the rest of the
   clip stands on it. Extras: `contacts` / `contact_probability` (T, 2) right, left feet
   (sole within 3 cm of the floor or of the box top under it; `contact_feet`), `box_contacts`
-  (T, 4) int, box index or -1 per limb in `actors.scene_reward.SCENE_LIMBS` order, and the
+  (T, 4) int, box index or -1 per limb in `actors.envs.scene_reward.SCENE_LIMBS` order, and the
   truth: `scene_truth` (1, 5) = along, lateral, height, length, width (m, scene frame:
-  `actors.scene.SceneFrame`) with `scene_truth_columns`.
+  `actors.arenas.scene.SceneFrame`) with `scene_truth_columns`.
 - `box_jump_truth.yaml`: that box as a scene file (domain +-0.1 m: the training check);
 - `box_jump.yaml`: a first guess 0.1 m too far and 0.1 m too high with 002's +-0.3 m
   domains, the starting point a scene fit must correct.
@@ -40,11 +40,11 @@ def _smoothstep(x: np.ndarray) -> np.ndarray:
 
 def box_jump_clip(height: float = 0.2):
     """(motion, scene truth (1, 5)) of the jump landing on a box of `height` metres."""
-    from actors.foot_contact import sole_heights
-    from actors.kinematics import forward_kinematics
-    from actors.motion import ReferenceMotion
-    from actors.motion_io import load_motion
-    from actors.scene import SceneFrame
+    from actors.character.foot_contact import sole_heights
+    from actors.character.kinematics import forward_kinematics
+    from actors.motion.reference_motion import ReferenceMotion
+    from actors.motion.formats.io import load_motion
+    from actors.arenas.scene import SceneFrame
 
     clip = load_motion("deepmimic:jump")
     links, rots = forward_kinematics(clip.root_pos, clip.root_rot, clip.joint_rot)
@@ -80,7 +80,7 @@ def main(argv=None) -> int:
     parser.add_argument("--height", type=float, default=0.2, help="box height (m)")
     parser.add_argument("--out-dir", default=str(Path(__file__).parent / "scenes"))
     args = parser.parse_args(argv)
-    from actors.motion_io import save_motion
+    from actors.motion.formats.io import save_motion
     from learner.atomic_io import atomic_output
 
     out = Path(args.out_dir)

@@ -44,8 +44,8 @@ def _rollout_digest() -> dict:
     """One worker's first sample() with a freshly initialised learner's weights."""
     import torch
 
-    from actors.motion_io import load_motion
-    from actors.rollout_worker import RolloutWorker, WorkerSpec
+    from actors.motion.formats.io import load_motion
+    from actors.rollout.worker import RolloutWorker, WorkerSpec
     from learner.ppo import PPOLearner
 
     torch.set_num_threads(1)

@@ -3,7 +3,7 @@
 A DeepMimic clip seen by a camera that tracks the character loses its root path; what the
 video still gives is the joint rotations (here the clip's, plus noise: the 3D prediction's
 error), the body-orientation hint and the foot contacts (here from the clip,
-`actors/clip_cues.py`). Stages:
+`actors/envs/modes/movingcam/clip_cues.py`). Stages:
 
 1. prepare: the clip's root path removed (`services/reconstruction/root_free.make_root_free`),
    hint and contacts from the clean clip, Gaussian noise of `--noise-rad` on every joint
@@ -52,10 +52,10 @@ EPISODES = 16  # starts at phases k / 16, as the strict evaluation's
 
 
 def prepare(clip: str, noise_rad: float, seed: int, out: Path) -> Path:
-    from actors import quaternion as qn
-    from actors.clip_cues import clip_cues
-    from actors.motion import ReferenceMotion
-    from actors.motion_io import load_motion, save_motion
+    from actors.character import quaternion as qn
+    from actors.envs.modes.movingcam.clip_cues import clip_cues
+    from actors.motion.reference_motion import ReferenceMotion
+    from actors.motion.formats.io import load_motion, save_motion
     from services.reconstruction.root_free import make_root_free
 
     clean = load_motion(clip)
@@ -70,7 +70,7 @@ def prepare(clip: str, noise_rad: float, seed: int, out: Path) -> Path:
 
 
 def _yaw(quats: np.ndarray) -> np.ndarray:
-    from actors import quaternion as qn
+    from actors.character import quaternion as qn
 
     return qn.heading_angle(quats)
 
@@ -159,7 +159,7 @@ def plot_paths(episodes: list[dict], png: Path, clip: str) -> None:
 def report(out: Path, clip: str, noise_rad: float, command: str, result_file: Path | None = None) -> dict:
     from threadpoolctl import threadpool_limits
 
-    from actors.motion_io import load_motion
+    from actors.motion.formats.io import load_motion
     from services.training.evaluation import evaluate_policy, make_eval_env, start_phases
     from services.training.policy_source import load_policy_source
     from services.training.run_dir import read_metrics

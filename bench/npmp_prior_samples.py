@@ -47,8 +47,8 @@ class LatentStream:
 
 
 def run_stream(module: str, name: str, alpha: float, sigma: float, latent_dim: int, episodes: int, seed: int, prior) -> dict:
-    from actors.tasks.config import TaskEnvConfig
-    from actors.tasks.vector_task_env import VectorTaskEnv
+    from actors.envs.tasks.config import TaskEnvConfig
+    from actors.envs.tasks.vector_task_env import VectorTaskEnv
     from services.tasks.evaluation import run_episodes
 
     config = TaskEnvConfig(task="go_to", action="latent", module=module, latent_scale=LATENT_SCALE)

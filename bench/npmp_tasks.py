@@ -36,7 +36,7 @@ def samples_to_success(rows: list[dict], threshold: float) -> int | None:
 
 
 def train(task: str, action: str, args, run_dir: Path) -> float:
-    from actors.tasks.config import TaskEnvConfig
+    from actors.envs.tasks.config import TaskEnvConfig
     from services.tasks.config import TaskConfig, task_ppo
     from services.tasks.driver import TaskTrainer
     from services.training.run_dir import checkpoint_files, read_metrics

@@ -22,9 +22,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from actors import quaternion as qn  # noqa: E402
-from actors.imitation_env import EnvConfig, ImitationEnv  # noqa: E402
-from actors.motion_io import load_motion  # noqa: E402
+from actors.character import quaternion as qn  # noqa: E402
+from actors.envs.imitation_env import EnvConfig, ImitationEnv  # noqa: E402
+from actors.motion.formats.io import load_motion  # noqa: E402
 from learner.errors import SfvError  # noqa: E402
 from services.asi.distribution import InitialStateDistribution  # noqa: E402
 from services.training.run_dir import write_json_atomic  # noqa: E402

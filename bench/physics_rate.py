@@ -19,7 +19,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from actors.motion_io import load_motion  # noqa: E402
+from actors.motion.formats.io import load_motion  # noqa: E402
 from learner.errors import SfvError  # noqa: E402
 from services.training.evaluation import evaluate_policy, make_eval_env  # noqa: E402
 from services.training.policy_source import load_policy_source  # noqa: E402

@@ -75,8 +75,8 @@ def main(argv=None) -> int:
     parser.add_argument("--result", default=str(HERE / "results" / "scene_fit.json"))
     args = parser.parse_args(argv)
 
-    from actors.imitation_env import EnvConfig
-    from actors.motion_io import load_motion
+    from actors.envs.imitation_env import EnvConfig
+    from actors.motion.formats.io import load_motion
     from learner.atomic_io import atomic_write_json
     from services.scene_fit import scene_contract
     from services.scene_fit.final_rollout import final_rollout

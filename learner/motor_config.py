@@ -32,8 +32,8 @@ class MotorModuleConfig:
     max_grad_norm: float = field(default=1.0, metadata={"help": "clip the gradient's global L2 norm to this"})
     validation_fraction: float = field(default=0.05, metadata={"help": "fraction of the episodes kept out of training for the validation loss"})
     seed: int = field(default=0, metadata={"help": "seed of the network init, window sampling and latent noise"})
-    proprio_dim: int = field(default=196, metadata={"help": "decoder input s_t (actors/proprioception.py); fixed by the dataset"})
-    future_dim: int = field(default=565, metadata={"help": "encoder input s_t+1..t+k (actors/future_reference.py); fixed by the dataset"})
+    proprio_dim: int = field(default=196, metadata={"help": "decoder input s_t (actors/envs/tasks/proprioception.py); fixed by the dataset"})
+    future_dim: int = field(default=565, metadata={"help": "encoder input s_t+1..t+k (actors/envs/tasks/future_reference.py); fixed by the dataset"})
     action_dim: int = field(default=28, metadata={"help": "decoder output: absolute PD targets (rad); fixed by the dataset"})
 
     def __post_init__(self) -> None:

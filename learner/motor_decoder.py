@@ -3,7 +3,7 @@
     decoder = LatentDecoder.load("MODULE")            # or MODULE/decoder.npz
     targets = decoder(proprio (B, 196), z (B, latent_dim))   # (B, 28) absolute PD targets, rad
 
-Inputs: s_t of `actors/proprioception.py` (no reference, no phase) and a latent z (from the
+Inputs: s_t of `actors/envs/tasks/proprioception.py` (no reference, no phase) and a latent z (from the
 encoder in one-shot imitation, from a task policy when the module is reused). Output: the mean
 of pi(a_t | s_t, z_t), the 28 actuator targets the env writes into ctrl, NOT residual actions
 and not clipped (clip to the joint limits, `ActionMapper.lower/upper`, as the env does).

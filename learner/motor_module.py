@@ -1,11 +1,11 @@
 """The NPMP motor module in torch: encoder, AR(1) prior, decoder, ELBO (004 §3.3 eq. 4; Merel et al. 2019).
 
 - Encoder q(z_t | z_{t-1}, s_{t+1..t+k}) = N(mu, diag(std^2)), mu and log std an ELU MLP of the
-  normalised future features (`actors/future_reference.py`) and z_{t-1} (Merel et al.'s form).
+  normalised future features (`actors/envs/tasks/future_reference.py`) and z_{t-1} (Merel et al.'s form).
 - Prior p(z_t | z_{t-1}) = N(alpha z_{t-1}, (1 - alpha^2) sigma^2 I): AR(1), stationary with
   marginal N(0, sigma^2 I), which is also the prior of the first step of a sequence.
 - Decoder pi(a_t | s_t, z_t) = N(mu(s_t, z_t), diag(std^2)): an ELU MLP of the normalised
-  proprioception (`actors/proprioception.py`, no reference) and z_t; mu is the absolute PD
+  proprioception (`actors/envs/tasks/proprioception.py`, no reference) and z_t; mu is the absolute PD
   targets (rad) the env writes into ctrl; the std is learned, state-independent.
 - Loss per step = -log pi(a*_t | s_t, z_t) + beta KL(q || p), a*_t the targets of the expert's
   mean action, z_t ~ q by reparameterisation; KL analytic between diagonal Gaussians; averaged

@@ -14,7 +14,7 @@ SHARED = REPO.parent / "shared"
 def load_clip(name: str):
     """A DeepMimic clip from pybullet_data (the test skips where the package is absent)."""
     pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")
-    from actors.motion_io import load_motion
+    from actors.motion.formats.io import load_motion
 
     return load_motion(f"deepmimic:{name}")
 
@@ -26,7 +26,7 @@ def walk_clip():
 
 @pytest.fixture(scope="session")
 def shared_humanoid():
-    from actors.humanoid import Humanoid
+    from actors.character.humanoid import Humanoid
 
     return Humanoid()
 

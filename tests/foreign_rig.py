@@ -9,7 +9,7 @@ that differs in every way the retargeter must undo.
 - Z up facing -y, or Y up facing +z (Mixamo's convention);
 - ZYX rotation channels (one joint XYZ).
 
-Written independently of `actors/retarget.py`: each foreign joint's global rotation is the
+Written independently of `actors/motion/formats/retarget.py`: each foreign joint's global rotation is the
 humanoid link's global rotation times the inverse of that bone's known rest rotation (the
 A-pose turn for the arms, identity elsewhere), and local rotations follow from the tree.
 """
@@ -18,11 +18,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from actors import quaternion as qn
-from actors.bvh import end_site_yup
-from actors.kinematics import forward_kinematics
-from actors.motion import ReferenceMotion
-from actors.skeleton import LINK_NAMES, OFFSETS, yup_to_zup
+from actors.character import quaternion as qn
+from actors.motion.formats.bvh import end_site_yup
+from actors.character.kinematics import forward_kinematics
+from actors.motion.reference_motion import ReferenceMotion
+from actors.character.skeleton import LINK_NAMES, OFFSETS, yup_to_zup
 
 A_POSE_DEG = 45.0
 

@@ -11,9 +11,9 @@ def write_stand_run(root: Path, motion, edit_policy: Callable | None = None, hid
     """`root`/run with config.json and checkpoint 1; `edit_policy(learner.policy)` runs under no_grad before saving."""
     import torch
 
-    from actors.features import observation_dim
-    from actors.imitation_env import EnvConfig
-    from actors.motion_io import save_motion
+    from actors.character.features import observation_dim
+    from actors.envs.imitation_env import EnvConfig
+    from actors.motion.formats.io import save_motion
     from learner.checkpoint import checkpoint_path, save_checkpoint
     from learner.ppo import PPOLearner
     from services.training.config import TrainConfig

@@ -1,8 +1,9 @@
 """The layers point one way: proto <- learner <- actors <- services (docs/architecture.md).
 
 Read from the source (every import statement, at module level or inside a function): no
-module imports a package above its own, proto imports nothing of ours, and no set of modules
-imports each other in a circle."""
+module imports a package above its own, proto imports nothing of ours, no set of modules
+imports each other in a circle, and no set of folders does either: within every package, its
+rooms (sub-packages and modules) import each other one way."""
 from __future__ import annotations
 
 import ast
@@ -83,6 +84,34 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 def test_no_modules_import_each_other_in_a_circle():
     assert _cycles(import_graph()) == []
+
+
+def room_graphs(graph: dict[str, set[str]]) -> dict[str, dict[str, set[str]]]:
+    """Per package, the imports between its rooms (its sub-packages and modules, each with all
+    it holds): `a.b.x -> a.c.y` is the edge `a.b -> a.c` inside package `a`."""
+    rooms: dict[str, dict[str, set[str]]] = {}
+    for module, targets in graph.items():
+        for target in targets:
+            a, b = module.split("."), target.split(".")
+            k = 0
+            while k < min(len(a), len(b)) and a[k] == b[k]:
+                k += 1
+            if k in (len(a), len(b)):  # a package and what it holds
+                continue
+            inside = rooms.setdefault(".".join(a[:k]), {})
+            inside.setdefault(".".join(a[:k + 1]), set()).add(".".join(b[:k + 1]))
+            inside.setdefault(".".join(b[:k + 1]), set())
+    return rooms
+
+
+def test_no_folders_import_each_other_in_a_circle():
+    circles = {package: found for package, inside in room_graphs(import_graph()).items() if (found := _cycles(inside))}
+    assert circles == {}
+
+
+def test_the_room_graph_sees_a_circle_between_folders():
+    graph = {"p.a.x": {"p.b.y"}, "p.b.y": set(), "p.b.z": {"p.a.w"}, "p.a.w": set()}
+    assert {k: _cycles(v) for k, v in room_graphs(graph).items()} == {"p": [["p.a", "p.b"]]}
 
 
 def test_the_cycle_finder_finds_a_circle():

@@ -3,5 +3,5 @@
 - distribution.py: the k-Gaussian distribution and its policy-gradient step (pure numpy)
 - store.py / redis_store.py: where jobs live (in-process or Redis)
 - server.py: the gRPC service, validation, auth, `serve` and `EmbeddedASIServer`
-The client for rollout workers is actors/asi_client.py.
+The client for rollout workers is actors/rollout/asi_client.py.
 """

@@ -21,8 +21,8 @@ import numpy as np
 from google.protobuf.message import DecodeError
 from grpc_health.v1 import health, health_pb2, health_pb2_grpc
 
-from actors.asi_client import BASELINES as BASELINE_ENUMS
-from actors.asi_client import MAX_MESSAGE_BYTES
+from actors.rollout.asi_client import BASELINES as BASELINE_ENUMS
+from actors.rollout.asi_client import MAX_MESSAGE_BYTES
 from learner.errors import SfvError
 from proto import asi_pb2, asi_pb2_grpc
 from services.asi.distribution import (

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from actors.humanoid import PhysicsConfig
+from actors.character.humanoid import PhysicsConfig
 
 SUITES = ("env", "worker", "learner", "system", "peer", "pose")
 

@@ -6,11 +6,11 @@ All variants run in this process, one core, interleaved in every repetition.
 """
 from __future__ import annotations
 
-from actors.actions import ActionMapper
-from actors.features import observation_dim
-from actors.humanoid import PhysicsConfig
-from actors.imitation_env import EnvConfig
-from actors.motion_io import load_motion
+from actors.character.actions import ActionMapper
+from actors.character.features import observation_dim
+from actors.character.humanoid import PhysicsConfig
+from actors.envs.imitation_env import EnvConfig
+from actors.motion.formats.io import load_motion
 from services.bench.config import TARGET_WORKER_OVER_RAW, BenchConfig
 from services.bench.measure import Summary, interleaved, rate_for, ratio
 from services.bench.result import SuiteResult

@@ -12,7 +12,7 @@ import time
 import numpy as np
 import torch
 
-from actors.features import OBS_DIM
+from actors.character.features import OBS_DIM
 from learner.config import PPOConfig
 from learner.ppo import PPOLearner
 from services.bench.config import BenchConfig

@@ -156,7 +156,7 @@ def _names(flag: str, text: str) -> list[str]:
 
 def _skill(text: str) -> tuple[str, str]:
     """A skill flag entry -> (motion for TrainConfig, short clip name); validates by loading it."""
-    from actors.motion_io import DEEPMIMIC_CLIPS, load_motion
+    from actors.motion.formats.io import DEEPMIMIC_CLIPS, load_motion
 
     motion = f"deepmimic:{text}" if text in DEEPMIMIC_CLIPS else text
     try:
@@ -206,7 +206,7 @@ def config_from_args(args) -> LearningConfig:
         raise SfvError(f"--physics-hz must be positive, got {config.physics_hz}")
     skills = _names("skills", args.skills) if args.skills is not None else list(defaults.skills)
     if skills == ["all"]:  # every DeepMimic humanoid3d clip
-        from actors.motion_io import DEEPMIMIC_CLIPS
+        from actors.motion.formats.io import DEEPMIMIC_CLIPS
 
         skills = list(DEEPMIMIC_CLIPS)
     config.skills = tuple(dict.fromkeys(skills))
@@ -226,7 +226,7 @@ def cells(config: LearningConfig) -> list[Cell]:
 
 
 def train_config(config: LearningConfig, cell: Cell):
-    from actors.humanoid import PhysicsConfig
+    from actors.character.humanoid import PhysicsConfig
     from services.training.config import TrainConfig
 
     train = TrainConfig(motion=cell.skill, out=str(run_dir_of(config, cell)), workers=config.workers,
@@ -625,7 +625,7 @@ def command_line(config: LearningConfig) -> str:
 
 
 def _non_default_physics_hz(config: LearningConfig) -> float | None:
-    from actors.humanoid import PhysicsConfig
+    from actors.character.humanoid import PhysicsConfig
 
     return None if config.physics_hz in (None, PhysicsConfig().physics_hz) else config.physics_hz
 

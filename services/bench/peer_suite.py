@@ -16,7 +16,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from actors.motion_io import load_motion
+from actors.motion.formats.io import load_motion
 from services.bench.config import TARGET_OURS_OVER_PEER_1200HZ, BenchConfig
 from services.bench.env_suite import add_ratio_pair, env_config_for, step_summaries
 from services.bench.measure import Rates, interleaved, rate_for
@@ -95,7 +95,7 @@ def run_peer_suite(config: BenchConfig, log) -> SuiteResult:
     settings = {"peer_python": python, "physics_rates_hz": list(config.peer_rates), "control_hz": 30.0,
                 "repeats": config.repeats, "seconds_per_measurement": config.seconds, "action_noise": config.action_noise,
                 "peer_env": "pybullet_envs.deep_mimic.gym_env.deep_mimic_env.HumanoidDeepBulletEnv(arg_file='run_humanoid3d_walk_args.txt')",
-                "ours_env": f"actors.imitation_env.ImitationEnv({config.motion})"}
+                "ours_env": f"actors.envs.imitation_env.ImitationEnv({config.motion})"}
     peers: list[PeerProcess] = []
     try:
         for hz in config.peer_rates:

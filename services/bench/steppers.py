@@ -17,11 +17,11 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from actors.features import OBS_DIM
-from actors.humanoid import Humanoid
-from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.motion import ReferenceMotion
-from actors.rollout_worker import RolloutWorker, WorkerSpec
+from actors.character.features import OBS_DIM
+from actors.character.humanoid import Humanoid
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.motion.reference_motion import ReferenceMotion
+from actors.rollout.worker import RolloutWorker, WorkerSpec
 
 FALLEN_ROOT_HEIGHT = 0.5  # m; the standing root is at 0.88
 

@@ -35,7 +35,7 @@ def moving_camera_motion(track, motion):
     """The reconstruction with the video's extras, root-free (as `sfv reconstruct --camera moving`)."""
     from services.pose.camera_path import camera_path
     from services.reconstruction.root_free import make_root_free
-    from services.reconstruction.video_extras import video_extras
+    from services.contacts.video_extras import video_extras
 
     path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
     motion.extras.update(video_extras(track, path, True, motion.extras.get("label_flipped")))
@@ -43,7 +43,7 @@ def moving_camera_motion(track, motion):
 
 
 def _reconstruct(args, out: Path):
-    from actors.motion_io import save_motion
+    from actors.motion.formats.io import save_motion
     from services.pose import estimate_video
     from services.reconstruction import ReconstructionConfig, reconstruct_on_ray
 
@@ -84,8 +84,8 @@ def run_moving(args) -> int:
     finally:
         if started_ray:
             ray.shutdown()
-    from actors.motion_io import load_motion
-    from services.reconstruction.video_extras import video_start_frame
+    from actors.motion.formats.io import load_motion
+    from services.contacts.video_extras import video_start_frame
     from services.scene_fit.outputs import render_simulation
 
     first = video_start_frame(load_motion(str(motion_path)).extras)  # the motion may begin later in the video

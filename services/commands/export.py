@@ -6,7 +6,7 @@
     sfv export RUN --motion rollout.npz --bvh rollout.bvh [--episodes 1] [--seconds T]
         roll the policy out and record the simulated character's root and joint rotations at
         every control step, as an sfv motion (.npz) and/or BVH (Y up, centimetres by default,
-        ZXY Euler channels; see actors/bvh.py). With --episodes E > 1 each episode
+        ZXY Euler channels; see actors/motion/formats/bvh.py). With --episodes E > 1 each episode
         goes to its own file: NAME_ep01.npz, NAME_ep02.npz, ...
 
 Prints one JSON object naming the files written.
@@ -64,8 +64,8 @@ def _check_args(args) -> None:
 def export_rollouts(args) -> list[dict]:
     from threadpoolctl import threadpool_limits
 
-    from actors.bvh import write_bvh
-    from actors.motion_io import save_motion
+    from actors.motion.formats.bvh import write_bvh
+    from actors.motion.formats.io import save_motion
     from services.export.rollout import record_episode
     from services.training.policy_source import load_policy_source
 

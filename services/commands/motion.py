@@ -5,7 +5,7 @@
     sfv motion bend MOTION --yaw-rate DEG_PER_S --seconds S --out OUT.npz
 
 MOTION is a DeepMimic clip name (`deepmimic:walk`) or a path (.npz, DeepMimic JSON or BVH).
-A BVH from another rig is retargeted onto the humanoid (`actors/retarget.py`); `convert`
+A BVH from another rig is retargeted onto the humanoid (`actors/motion/formats/retarget.py`); `convert`
 then adds what the retargeting did to its JSON (`retarget`: rig, axes, units, clipped
 angles, floor shift, penetration before/after, foot skating of source and result).
 `check` loads the clip, builds the imitation env on it and prints one JSON object: the
@@ -13,7 +13,7 @@ clip's summary and `playback_reward`, the mean reward when the simulated charact
 exactly on the reference at every control step of one pass of the clip. A value below 1
 means the reward's reference features and the simulated features disagree (a kinematics
 or state-layout bug), not that the clip is hard. `convert` writes the project's .npz.
-`bend` plays a (looped) clip along a path turning at a constant rate (`actors/motion_bend.py`):
+`bend` plays a (looped) clip along a path turning at a constant rate (`actors/motion/bend.py`):
 the turning walk the motor module's vocabulary needs (NPMP, 004 §3.4).
 """
 from __future__ import annotations
@@ -55,8 +55,8 @@ def register(subparsers) -> None:
 
 
 def _add_bvh_flags(parser) -> None:
-    from actors.bvh_units import AXES, UNIT_METRES
-    from actors.rigs import PRESET_NAMES
+    from actors.motion.formats.bvh_units import AXES, UNIT_METRES
+    from actors.motion.formats.rigs import PRESET_NAMES
 
     group = parser.add_argument_group("BVH input (ignored by other formats)")
     group.add_argument("--rig", default="auto", help=f"auto (detect from joint names), a preset ({', '.join(PRESET_NAMES)}) "
@@ -68,8 +68,8 @@ def _add_bvh_flags(parser) -> None:
 
 
 def _env_config(physics_hz: float | None):
-    from actors.humanoid import PhysicsConfig
-    from actors.imitation_env import EnvConfig
+    from actors.character.humanoid import PhysicsConfig
+    from actors.envs.imitation_env import EnvConfig
 
     config = EnvConfig()
     if physics_hz is None:
@@ -95,8 +95,8 @@ def playback_reward(env) -> float:
 
 
 def run_check(args: argparse.Namespace) -> int:
-    from actors.imitation_env import ImitationEnv
-    from actors.motion_io import load_motion
+    from actors.envs.imitation_env import ImitationEnv
+    from actors.motion.formats.io import load_motion
 
     config = _env_config(args.physics_hz)
     motion = load_motion(args.motion)
@@ -110,12 +110,12 @@ def run_check(args: argparse.Namespace) -> int:
 
 
 def run_convert(args: argparse.Namespace) -> int:
-    from actors.motion_io import check_motion, is_bvh_file, load_motion, resolve_motion_path, save_motion
+    from actors.motion.formats.io import check_motion, is_bvh_file, load_motion, resolve_motion_path, save_motion
 
     retarget_report = None
     if not args.motion.startswith("deepmimic:") and is_bvh_file(args.motion):
-        from actors.bvh_import import import_bvh
-        from actors.retarget import RetargetOptions
+        from actors.motion.formats.bvh_import import import_bvh
+        from actors.motion.formats.retarget import RetargetOptions
 
         loop = {"auto": None, "yes": True, "no": False}[args.loop]
         path = resolve_motion_path(args.motion)
@@ -132,7 +132,7 @@ def run_convert(args: argparse.Namespace) -> int:
     report = dict(motion.summary())
     report["out"] = str(path)
     if retarget_report is not None:
-        from actors.bvh_import import FILE_REPORT
+        from actors.motion.formats.bvh_import import FILE_REPORT
 
         report["bvh"] = retarget_report.pop(FILE_REPORT)  # frames declared / read, each tolerated quirk
         report["retarget"] = retarget_report
@@ -141,8 +141,8 @@ def run_convert(args: argparse.Namespace) -> int:
 
 
 def run_bend(args: argparse.Namespace) -> int:
-    from actors.motion_bend import bend_motion
-    from actors.motion_io import load_motion, save_motion
+    from actors.motion.bend import bend_motion
+    from actors.motion.formats.io import load_motion, save_motion
 
     if not (math.isfinite(args.seconds) and 0 < args.seconds <= 600):
         raise SfvError(f"--seconds must be in (0, 600], got {args.seconds}")

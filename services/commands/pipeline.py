@@ -62,7 +62,7 @@ def run_static(args) -> int:
 
     import ray
 
-    from actors.motion_io import save_motion
+    from actors.motion.formats.io import save_motion
     from learner.errors import SfvError
     from services.pose import estimate_video
     from services.commands._pipeline_settings import train_config

@@ -53,7 +53,7 @@ def _check_args(args: argparse.Namespace) -> None:
 def run_reconstruct(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from actors.motion_io import save_motion
+    from actors.motion.formats.io import save_motion
     from services.pose import PoseTrack, estimate_video
     from services.pose.camera_path import camera_path, decide_camera
     from services.pose.subject import crop_to_seen
@@ -61,7 +61,7 @@ def run_reconstruct(args: argparse.Namespace) -> int:
     from services.ray_session import connect_ray
     from services.reconstruction import ReconstructionConfig, reconstruct_on_ray, reconstruct_track
     from services.reconstruction.root_free import make_root_free
-    from services.reconstruction.video_extras import video_extras
+    from services.contacts.video_extras import video_extras
 
     _check_args(args)
     choice, frames = person_choice(args), frame_range(args)

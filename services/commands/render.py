@@ -41,7 +41,7 @@ def register(sub) -> None:
 
 def build_config(args):
     from services.render.movie import RenderConfig
-    from services.render.pushes import PushConfig
+    from actors.envs.pushes import PushConfig
 
     return RenderConfig(
         width=args.width, height=args.height, episodes=args.episodes, seconds=args.seconds, init=args.init,

@@ -28,7 +28,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_render_motion(args: argparse.Namespace) -> int:
-    from actors.motion_io import load_motion
+    from actors.motion.formats.io import load_motion
     from services.render.motion_video import render_motion_video
 
     if args.out.suffix.lower() != ".mp4":

@@ -70,7 +70,7 @@ def build_config(args):
             raise SfvError(f"sfv task --resume: {', '.join(refused)} cannot change mid-run ({saved})")
         return dataclasses.replace(config, **given)
     env = dict(task=TASK_NAMES[args.what], action=args.action, module=args.module, **env_given)
-    from actors.tasks.config import TaskEnvConfig
+    from actors.envs.tasks.config import TaskEnvConfig
 
     ppo = task_ppo(args.action)
     if args.batch_size is not None:

@@ -11,9 +11,9 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from actors import quaternion as qn
-from actors.imitation_env import ImitationEnv
-from actors.skeleton import revolute_angle
+from actors.character import quaternion as qn
+from actors.envs.imitation_env import ImitationEnv
+from actors.character.skeleton import revolute_angle
 
 _UP = np.array([0.0, 0.0, 1.0])
 

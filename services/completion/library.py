@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.imitation_env import ImitationEnv
-from actors.motion_io import load_motion
-from actors.skeleton import NUM_JOINTS
+from actors.envs.imitation_env import ImitationEnv
+from actors.motion.formats.io import load_motion
+from actors.character.skeleton import NUM_JOINTS
 from learner.errors import SfvError
 from learner.policy import NumpyPolicy
 from services.training.run_dir import CONFIG_FILE

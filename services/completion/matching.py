@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from actors import quaternion as qn
+from actors.character import quaternion as qn
 
 _UNIT_Z = np.array([0.0, 0.0, 0.0, 1.0])  # the pure quaternion k
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from actors import quaternion as qn
+from actors.character import quaternion as qn
 from services.reconstruction.body import body_points
 from services.reconstruction.camera import CAMERA_DOWN, camera_rotation_from_up
 from services.reconstruction.initial_fit import fit_poses_to_points

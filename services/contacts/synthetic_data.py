@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from actors.motion_io import DEEPMIMIC_CLIPS, load_motion
+from actors.motion.formats.io import DEEPMIMIC_CLIPS, load_motion
 from services.contacts.features import NETWORK_FPS, frame_stride, window_features
 from services.reconstruction.body import body_points
 from services.reconstruction.keypoints import FIT_NAMES, LEFT_RIGHT_SWAP

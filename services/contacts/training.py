@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from actors.motion_io import DEEPMIMIC_CLIPS
+from actors.motion.formats.io import DEEPMIMIC_CLIPS
 from learner.atomic_io import atomic_output
 from services.contacts.network import contact_network, export_onnx
 from services.contacts.settings import DIGEST_FILE, MODEL_FILE, REPORT_FILE, TrainSettings

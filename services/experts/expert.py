@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.motion_io import load_motion
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.motion.formats.io import load_motion
 
 
 class Expert:

@@ -28,8 +28,8 @@ import os
 import time
 from pathlib import Path
 
-from actors.mirror import MIRROR_SUFFIX
-from actors.motion_io import DEEPMIMIC_CLIPS
+from actors.character.mirror import MIRROR_SUFFIX
+from actors.motion.formats.io import DEEPMIMIC_CLIPS
 from learner.errors import SfvError
 from services.training.config import TrainConfig
 from services.training.run_dir import CONFIG_FILE, read_run_config

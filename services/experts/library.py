@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from actors.mirror import MIRROR_SUFFIX
+from actors.character.mirror import MIRROR_SUFFIX
 from learner.errors import SfvError
 from services.experts.expert import Expert
 from services.experts.mirrored_expert import MirroredExpert

@@ -1,6 +1,6 @@
 """The expert of a mirrored clip, by symmetry instead of training (NPMP data, 004 §3.3).
 
-The humanoid is left/right symmetric (`actors/mirror.py`), so a policy pi tracking clip C
+The humanoid is left/right symmetric (`actors/character/mirror.py`), so a policy pi tracking clip C
 gives the policy for C_mirror exactly: pi_mirror(o) = M_a(pi(M_o(o))), with M_o the mirror
 of the observation and M_a the mirror of the action (both signed permutations, their own
 inverses). Reading the observation back through M_o is the same as mirroring the simulated
@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from actors.humanoid import Humanoid
-from actors.mirror import action_mirror, mirrored_name, observation_mirror
+from actors.character.humanoid import Humanoid
+from actors.character.mirror import action_mirror, mirrored_name, observation_mirror
 from services.experts.expert import Expert
 
 

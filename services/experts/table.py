@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.mirror import MIRROR_SUFFIX
+from actors.character.mirror import MIRROR_SUFFIX
 from learner.atomic_io import atomic_write_json, atomic_write_text
 from learner.errors import SfvError
 from services.training.curves import save_figure
@@ -43,7 +43,7 @@ def tracking_curve(expert, env, starts: int = DEFAULT_STARTS, seconds: float = C
     """Fig. 3B for one expert: per control step since initialisation, the mean joint-rotation
     and end-effector errors over the rollouts still running, how many run, and the fraction
     that has had a strict fall."""
-    from actors.features import RewardFeatures
+    from actors.character.features import RewardFeatures
     from services.training.evaluation import start_phases, strict_fall_detector, tracking_errors
 
     steps_cap = max(1, int(round(seconds * env.config.control_hz)))
@@ -91,7 +91,7 @@ def evaluate_expert(experts_dir: str, clip: str, episodes: int = DEFAULT_EPISODE
     """One table row: the strict evaluation and the tracking curve of `clip`'s expert."""
     from threadpoolctl import threadpool_limits
 
-    from actors.motion_io import load_motion
+    from actors.motion.formats.io import load_motion
     from services.experts.job import samples_done
     from services.experts.library import load_expert
     from services.training.evaluation import evaluate_policy, make_eval_env

@@ -13,9 +13,9 @@ from typing import Iterator
 
 import numpy as np
 
-from actors.imitation_env import ImitationEnv
-from actors.motion import ReferenceMotion
-from actors.skeleton import NUM_JOINTS
+from actors.envs.imitation_env import ImitationEnv
+from actors.motion.reference_motion import ReferenceMotion
+from actors.character.skeleton import NUM_JOINTS
 
 
 @dataclass

@@ -6,9 +6,9 @@ Layout of a dataset directory:
     DIR/manifest.json         written last: its presence means the dataset is complete
 
 Fields, one row per control step of an expert rollout with action noise:
-- `proprio` (196,) float32: s_t, the decoder's input (`actors/proprioception.py`);
+- `proprio` (196,) float32: s_t, the decoder's input (`actors/envs/tasks/proprioception.py`);
 - `future` (565,) float32: the next 5 reference states relative to the character, the
-  encoder's input (`actors/future_reference.py`);
+  encoder's input (`actors/envs/tasks/future_reference.py`);
 - `mean_targets` (28,) float32: PD targets (rad) of the expert's mean action, the regression target;
 - `applied_targets` (28,) float32: PD targets of the noisy action actually applied;
 - `reward` float32 (the imitation reward of the step), `clip` int16 (index into the manifest's
@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.future_reference import FUTURE_DIM
-from actors.proprioception import PROPRIO_DIM
-from actors.skeleton import NUM_ACTUATED_DOF
+from actors.envs.tasks.future_reference import FUTURE_DIM
+from actors.envs.tasks.proprioception import PROPRIO_DIM
+from actors.character.skeleton import NUM_ACTUATED_DOF
 from learner.atomic_io import atomic_output, atomic_write_json
 from learner.errors import SfvError
 

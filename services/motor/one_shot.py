@@ -3,7 +3,7 @@
 "One-shot imitation involves providing the trained NPMP with a state-sequence and asking it to
 generate a sequence of actions that would reproduce that movement." Closed loop, per control
 step: the encoder sees the clip's next 5 reference states relative to the *simulated*
-character (`actors/future_reference.py`) and its own previous latent, z_t = mean of
+character (`actors/envs/tasks/future_reference.py`) and its own previous latent, z_t = mean of
 q(z_t | z_{t-1}, s_{t+1..t+5}) (z_0 = 0 at each episode start, as in training); the decoder
 turns (s_t, z_t) into absolute PD targets, which drive the env (the clip's expert env with
 absolute targets: the targets pass the action mapper unchanged, clipped to the joint limits).
@@ -32,7 +32,7 @@ class OneShotPolicy:
     """`mean(obs)` for `evaluate_policy`: reads the env's state, returns the action of the decoder's targets."""
 
     def __init__(self, env, module, decoder):
-        from actors.future_reference import FutureReference
+        from actors.envs.tasks.future_reference import FutureReference
 
         if env.actions.residual:
             raise SfvError("one-shot: the env must take absolute targets (residual_action_scale None)")
@@ -62,8 +62,8 @@ class OneShotPolicy:
 
 def one_shot_env_and_policy(module_dir: str | Path, expert) -> tuple:
     """The clip's env with absolute targets (the expert's other settings) and the one-shot controller on it."""
-    from actors.imitation_env import ImitationEnv
-    from actors.motion_io import load_motion
+    from actors.envs.imitation_env import ImitationEnv
+    from actors.motion.formats.io import load_motion
     from learner.motor_decoder import LatentDecoder
     from services.motor.training import load_module
 

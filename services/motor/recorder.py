@@ -7,7 +7,7 @@ to the actions". Per clip (one Ray task each, as many at once as the cores):
   sequence, so any number of episodes covers the clip evenly), from the reference state there;
 - each step the expert's mean action a* is perturbed by independent N(0, noise_std^2) noise
   per component in normalised action units (default 0.1, the experts' own exploration std);
-  the applied action drives the env; the PD targets of a* (what `actors/actions.py` makes of it:
+  the applied action drives the env; the PD targets of a* (what `actors/character/actions.py` makes of it:
   reference target + residual, clipped) are the regression target, so the dataset holds the
   expert's *correction* from the perturbed states the noise leads to;
 - an episode ends at a fall, the clip's end or `episode_steps` (short episodes keep the starts
@@ -56,8 +56,8 @@ def record_clip(experts_dir: str, clip: str, clip_index: int, out_dir: str, conf
     expert for `<clip>_mirror`) out until `config.steps_per_clip` rows; chunks into `out_dir`.
 
     Returns the chunk descriptions (file name within out_dir, steps, episodes)."""
-    from actors.actions import ActionMapper
-    from actors.future_reference import FutureReference
+    from actors.character.actions import ActionMapper
+    from actors.envs.tasks.future_reference import FutureReference
     from services.experts.library import load_expert
 
     policy = load_expert(experts_dir, clip, max_batch=1)
@@ -108,7 +108,7 @@ def record_clip(experts_dir: str, clip: str, clip_index: int, out_dir: str, conf
 def expert_clips(experts_dir: Path, clips: list[str] | None) -> list[str]:
     """The clips to record, checked against `experts_dir` (`<clip>_mirror` needs `<clip>`'s run);
     every expert run with a checkpoint when `clips` is None."""
-    from actors.mirror import MIRROR_SUFFIX
+    from actors.character.mirror import MIRROR_SUFFIX
 
     experts_dir = Path(experts_dir)
     if not experts_dir.is_dir():

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from actors.skeleton import LINK_JOINT, NUM_LINKS, OFFSETS, PARENTS
+from actors.character.skeleton import LINK_JOINT, NUM_LINKS, OFFSETS, PARENTS
 
 
 def _depths() -> np.ndarray:

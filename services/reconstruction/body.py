@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from actors.skeleton import HINGE_AXIS, JOINT_LINKS, LINK_NAMES, LINKS, REVOLUTE_JOINTS, SPHERICAL_JOINTS, joint_limits_zup
+from actors.character.skeleton import HINGE_AXIS, JOINT_LINKS, LINK_NAMES, LINKS, REVOLUTE_JOINTS, SPHERICAL_JOINTS, joint_limits_zup
 from services.reconstruction import quaternion_torch as qt
 from services.reconstruction.batched_kinematics import link_frames
 from services.reconstruction.keypoints import FIT_LINKS, FIT_OFFSETS, FOOT_CENTRE, FOOT_HALF, NUM_FIT

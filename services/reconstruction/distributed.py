@@ -1,7 +1,7 @@
 """Reconstruction as a Ray task (one CPU; torch then runs single-threaded inside it)."""
 from __future__ import annotations
 
-from actors.motion import ReferenceMotion
+from actors.motion.reference_motion import ReferenceMotion
 from services.ray_session import get_results, ray_session
 from services.reconstruction.config import ReconstructionConfig
 from services.reconstruction.reconstruct import reconstruct_track

@@ -14,7 +14,7 @@ import numpy as np
 import torch
 from scipy.spatial.transform import Rotation
 
-from actors.skeleton import JOINT_NAMES, REVOLUTE_JOINTS
+from actors.character.skeleton import JOINT_NAMES, REVOLUTE_JOINTS
 from services.reconstruction.body import REVOLUTE_LIMITS, PoseParams, body_points
 from services.reconstruction.keypoints import FIT_BONES, fit_index
 

@@ -1,7 +1,7 @@
 """Which BlazePose landmarks correspond to which points of the humanoid.
 
 The 12 output keypoints are the humanoid's hip, knee, ankle, shoulder, elbow and wrist
-joints (link origins in `actors.skeleton`) named as in Pose2Sim / OpenPose marker files.
+joints (link origins in `actors.character.skeleton`) named as in Pose2Sim / OpenPose marker files.
 The fit also uses five auxiliary points that pin down rotations the 12 joints leave free:
 the head centre (neck rotation) and each foot's toe and heel (ankle rotation). BlazePose's
 "left" is the person's left, as is the humanoid's.
@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from actors.skeleton import LINK_NAMES, LINKS, yup_to_zup
+from actors.character.skeleton import LINK_NAMES, LINKS, yup_to_zup
 
 JOINT_KEYPOINTS: tuple[str, ...] = (
     "RHip", "RKnee", "RAnkle", "LHip", "LKnee", "LAnkle",

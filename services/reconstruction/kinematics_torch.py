@@ -1,11 +1,11 @@
 """Forward kinematics of the humanoid in batched, differentiable torch: the mirror of
-`actors.kinematics.forward_kinematics` that motion reconstruction optimises through (same
+`actors.character.kinematics.forward_kinematics` that motion reconstruction optimises through (same
 pose layout, same results; a test checks them against each other)."""
 from __future__ import annotations
 
 import torch
 
-from actors.skeleton import HINGE_AXIS, LINK_JOINT, NUM_LINKS, OFFSETS, PARENTS, REVOLUTE_JOINTS, SPHERICAL_JOINTS
+from actors.character.skeleton import HINGE_AXIS, LINK_JOINT, NUM_LINKS, OFFSETS, PARENTS, REVOLUTE_JOINTS, SPHERICAL_JOINTS
 from services.reconstruction import quaternion_torch as qt
 
 

@@ -1,9 +1,9 @@
-"""Differentiable torch mirror of `actors.quaternion` (w, x, y, z), for motion reconstruction."""
+"""Differentiable torch mirror of `actors.character.quaternion` (w, x, y, z), for motion reconstruction."""
 from __future__ import annotations
 
 import torch
 
-from actors.quaternion import hamilton_product
+from actors.character.quaternion import hamilton_product
 
 
 def quat_mul(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:

@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from actors import quaternion as qn
-from actors.motion import ReferenceMotion
+from actors.character import quaternion as qn
+from actors.motion.reference_motion import ReferenceMotion
 from learner.errors import SfvError
 from services.reconstruction.body import PoseParams, body_points
 from services.reconstruction.camera import (

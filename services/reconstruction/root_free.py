@@ -6,14 +6,14 @@ the person's. movingcam (002 section 5.1) therefore leaves the root to the simul
 imitation reward compares joint angles and velocities and the body-orientation hint, never
 the root position. The reconstruction still fits every frame (the fit needs a root), then
 the horizontal root position is held at its first value so that nothing downstream mistakes
-it for a path, and the file is flagged `root_free` (see `actors.motion_io`). Height and the
+it for a path, and the file is flagged `root_free` (see `actors.motion.formats.io`). Height and the
 root's rotation are kept: the ground and the body's up direction still constrain them.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from actors.motion import ReferenceMotion
+from actors.motion.reference_motion import ReferenceMotion
 
 POSITION_EXTRAS = ("keypoints3d", "raw_keypoints3d")
 

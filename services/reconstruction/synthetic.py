@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from actors import quaternion as qn
-from actors.skeleton import JOINT_NAMES, REVOLUTE_JOINTS, SPHERICAL_JOINTS
+from actors.character import quaternion as qn
+from actors.character.skeleton import JOINT_NAMES, REVOLUTE_JOINTS, SPHERICAL_JOINTS
 from services.pose.track import KEYPOINT_NAMES, PoseTrack
 from services.reconstruction.body import REVOLUTE_LIMITS, SPHERICAL_LIMITS, PoseParams, body_points
 from services.reconstruction.camera import PinholeCamera, camera_rotation_from_up

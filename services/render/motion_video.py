@@ -11,12 +11,12 @@ import cv2
 import mujoco
 import numpy as np
 
-from actors.humanoid import Humanoid
-from actors.motion import ReferenceMotion
-from actors.state import StateLayout
+from actors.character.humanoid import Humanoid
+from actors.motion.reference_motion import ReferenceMotion
+from actors.character.state import StateLayout
 from learner.errors import SfvError
 from services.reconstruction.keypoints import JOINT_KEYPOINTS
-from services.reconstruction.video_extras import video_start_frame
+from services.contacts.video_extras import video_start_frame
 from services.render.contact_marks import draw_contacts
 from services.render.keypoint_overlay import MODEL_COLOUR, draw_keypoints, project
 from services.render.offscreen import OffscreenRenderer

@@ -15,13 +15,13 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from actors.imitation_env import ImitationEnv
+from actors.envs.imitation_env import ImitationEnv
 from learner.errors import SfvError
 from services.export.rollout import episode_limit, episode_steps
 from services.render.camera import CameraConfig, FollowCamera
 from services.render.caption import PUSH_RED, WHITE, draw_lines, text_scale
 from services.render.offscreen import OffscreenRenderer
-from services.render.pushes import PushConfig, PushSchedule, apply_push
+from actors.envs.pushes import PushConfig, PushSchedule, apply_push
 from services.render.video_writer import AtomicVideoWriter
 
 MAX_SIDE = 4096

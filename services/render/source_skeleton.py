@@ -14,13 +14,13 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from actors.bvh import read_bvh
-from actors.bvh_pose import bvh_forward_kinematics
-from actors.humanoid import Humanoid
-from actors.motion import ReferenceMotion
-from actors.retarget import RetargetOptions, source_frame
-from actors.rigs import resolve_rig
-from actors.state import StateLayout
+from actors.motion.formats.bvh import read_bvh
+from actors.motion.formats.bvh_pose import bvh_forward_kinematics
+from actors.character.humanoid import Humanoid
+from actors.motion.reference_motion import ReferenceMotion
+from actors.motion.formats.retarget import RetargetOptions, source_frame
+from actors.motion.formats.rigs import resolve_rig
+from actors.character.state import StateLayout
 from services.render.camera import CameraConfig, FollowCamera
 from services.render.caption import WHITE, draw_lines, text_scale
 from services.render.offscreen import OffscreenRenderer

@@ -16,11 +16,11 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from actors.foot_contact import FOOT_LINKS
-from actors.imitation_env import ImitationEnv
-from actors.motion import ReferenceMotion
-from actors.motion_io import load_motion
-from actors.skeleton import NUM_JOINTS
+from actors.character.foot_contact import FOOT_LINKS
+from actors.envs.imitation_env import ImitationEnv
+from actors.motion.reference_motion import ReferenceMotion
+from actors.motion.formats.io import load_motion
+from actors.character.skeleton import NUM_JOINTS
 from services.scene_fit import scene_contract
 from services.scene_fit.handover import WindowRollouts, start_episode
 from services.scene_fit.motion_scores import contact_accuracy, foot_contacts, mpjpe

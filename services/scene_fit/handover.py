@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.features import update_kinematics
-from actors.imitation_env import ImitationEnv
+from actors.character.features import update_kinematics
+from actors.envs.imitation_env import ImitationEnv
 from learner.atomic_io import atomic_output
 
 FIELDS = ("start_obs", "end_obs", "states", "qpos", "qvel", "reached", "steps")

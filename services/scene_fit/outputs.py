@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from actors.bvh import write_bvh
-from actors.motion_io import save_motion
+from actors.motion.formats.bvh import write_bvh
+from actors.motion.formats.io import save_motion
 from learner.atomic_io import atomic_write_json
 from services.scene_fit import scene_contract
 
@@ -33,8 +33,8 @@ def write_outputs(out: Path, motion, scene, summary: dict) -> dict[str, str]:
 def render_simulation(outcome, out: Path, video: Path | None = None, first_frame: int = 0, height: int = 480) -> Path:
     """The final rollout filmed in its scene (the first window's env, its boxes at the fitted e),
     beside `video` from `first_frame` when given."""
-    from actors.imitation_env import ImitationEnv
-    from actors.motion_io import load_motion
+    from actors.envs.imitation_env import ImitationEnv
+    from actors.motion.formats.io import load_motion
     from services.render.simulation_video import render_simulation_video
     from services.training.run_dir import read_run_config
 

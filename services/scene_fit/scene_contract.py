@@ -1,7 +1,7 @@
 """The one place scene fitting meets the scene boxes and the movingcam env mode (issue 15).
 
 What this package relies on, and from where:
-- `actors.scene`: `load_scene(path, motion)` (every fault one `SceneError` line, a box outside
+- `actors.arenas.scene`: `load_scene(path, motion)` (every fault one `SceneError` line, a box outside
   its domain or over the start pose included), `Scene.vector()` = [along, height] per box,
   `Scene.bounds()` (low, high), `Scene.normalise(e)` (to [-1, 1] over the domain),
   `Scene.with_vector(e)`, `Box`, `SceneFrame.of_motion` (the scene's axes: the clip's first frame).
@@ -30,9 +30,9 @@ MOVINGCAM_MODE = "movingcam"
 
 def _scene_module():
     try:
-        from actors import scene
+        from actors.arenas import scene
     except ImportError:
-        raise SfvError("--scene needs the scene boxes (actors/scene.py, issue 15), which this build lacks") from None
+        raise SfvError("--scene needs the scene boxes (actors/arenas/scene.py, issue 15), which this build lacks") from None
     return scene
 
 
@@ -115,6 +115,6 @@ def check_env(motion, env_config) -> None:
     """Build one env of `motion` with `env_config`: the movingcam mode checks the motion's
     contacts and orientation hint, the box arena the scene file, each with its one-line error,
     before anything is trained."""
-    from actors.imitation_env import ImitationEnv
+    from actors.envs.imitation_env import ImitationEnv
 
     ImitationEnv(motion, env_config)

@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.motion import ReferenceMotion
-from actors.motion_io import save_motion
+from actors.motion.reference_motion import ReferenceMotion
+from actors.motion.formats.io import save_motion
 from learner.atomic_io import atomic_write_json
 from services.scene_fit import scene_contract
 from services.scene_fit.handover import WindowRollouts, roll_window
@@ -98,7 +98,7 @@ def prepare_window(run: WindowRun, clip: ReferenceMotion, scene, previous: Windo
 def train_window(run: WindowRun, clip: ReferenceMotion, scene, initial_e, base: TrainConfig,
                  previous: WindowRollouts | None, rollouts: int, progress: bool) -> WindowRollouts:
     """Train one window (resuming a started run) and roll its policy out in the initial scene."""
-    from actors.imitation_env import ImitationEnv
+    from actors.envs.imitation_env import ImitationEnv
     from services.training.driver import Trainer
     from services.training.run_dir import checkpoint_files, load_run
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.motion_io import load_motion
+from actors.motion.formats.io import load_motion
 from services.scene_fit import scene_contract
 from services.scene_fit.windows import MAX_OBJECTS, Window, proportional_contact_frames, split_windows
 from services.training.config import TrainConfig
@@ -70,8 +70,8 @@ def run_scene_fit(motion_path: str, scene_path: str | None, out: Path, base: Tra
         summary["initial_scene_scores"] = stages.initial.scores(reference_contacts)  # Table 2's "fixed scene"
     simulated = stages.simulated
     summary["scores"] = simulated.scores(reference_contacts)
-    from actors.humanoid import Humanoid
-    from actors.state import StateLayout
+    from actors.character.humanoid import Humanoid
+    from actors.character.state import StateLayout
 
     motion = simulated.motion(f"{clip.name}-simulated", StateLayout(Humanoid()))
     fitted = None if scene is None else scene_contract.scene_with(scene, e)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from actors.motion import ReferenceMotion
+from actors.motion.reference_motion import ReferenceMotion
 from services.scene_fit.windows import Window
 
 

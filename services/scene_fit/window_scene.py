@@ -1,7 +1,7 @@
 """The scene as a later window sees it: in the frame of the window's first frame.
 
 A scene file places its boxes in the clip's scene frame (the first frame's root position
-and heading, `actors.scene.SceneFrame`), and the env builds the frame from the motion it is
+and heading, `actors.arenas.scene.SceneFrame`), and the env builds the frame from the motion it is
 given, which for a window is the window's own motion (`window_motion.py`). So each box is
 carried through the world into the window's frame: its along and lateral change, its along
 domain moves with its along, and the scene vector of the window is the clip's plus a fixed
@@ -18,12 +18,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from actors.motion import ReferenceMotion
+from actors.motion.reference_motion import ReferenceMotion
 
 
 def window_scene(scene, clip: ReferenceMotion, motion: ReferenceMotion):
     """(scene in `motion`'s frame, shift of its scene vector from the clip's)."""
-    from actors.scene import Scene, SceneFrame
+    from actors.arenas.scene import Scene, SceneFrame
 
     clip_frame, frame = SceneFrame.of_motion(clip), SceneFrame.of_motion(motion)
     boxes, shift = [], []

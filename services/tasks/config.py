@@ -9,8 +9,8 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
-from actors.humanoid import PhysicsConfig
-from actors.tasks.config import TaskEnvConfig
+from actors.character.humanoid import PhysicsConfig
+from actors.envs.tasks.config import TaskEnvConfig
 from learner.config import PPOConfig
 from learner.errors import ConfigError, SfvError
 from services.training.config import RUNNER_NAMES

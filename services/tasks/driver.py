@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from actors.tasks.task_worker import TaskRolloutWorker, TaskWorkerSpec
-from actors.tasks.vector_task_env import VectorTaskEnv
+from actors.rollout.task_worker import TaskRolloutWorker, TaskWorkerSpec
+from actors.envs.tasks.vector_task_env import VectorTaskEnv
 from learner.ppo import PPOLearner
 from services.tasks.config import TaskConfig
 from services.training.driver import Trainer, _set_torch_threads

@@ -13,7 +13,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from actors.tasks.vector_task_env import VectorTaskEnv
+from actors.envs.tasks.vector_task_env import VectorTaskEnv
 from learner.policy import NumpyPolicy
 from services.tasks.pose_prior import PosePrior, clip_poses
 

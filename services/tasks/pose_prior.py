@@ -21,9 +21,9 @@ ALL_CLIPS = ("backflip", "cartwheel", "crawl", "dance_a", "dance_b", "getup_face
 
 def clip_poses(clip: str, control_hz: float = 30.0) -> np.ndarray:
     """(T, 28) joint coordinates of a DeepMimic clip's frames at the control rate."""
-    from actors.humanoid import Humanoid
-    from actors.motion_io import load_motion
-    from actors.reference_track import ReferenceTrack
+    from actors.character.humanoid import Humanoid
+    from actors.motion.formats.io import load_motion
+    from actors.motion.reference_track import ReferenceTrack
 
     track = ReferenceTrack(load_motion(f"deepmimic:{clip}"), Humanoid(), 1.0 / control_hz, horizon_s=0.0)
     return track.ctrl[:track.start_steps].copy()

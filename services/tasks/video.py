@@ -11,7 +11,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from actors.tasks.vector_task_env import VectorTaskEnv
+from actors.envs.tasks.vector_task_env import VectorTaskEnv
 from learner.policy import NumpyPolicy
 from services.render.camera import FollowCamera
 from services.render.caption import PUSH_RED, WHITE, draw_lines

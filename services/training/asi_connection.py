@@ -14,7 +14,7 @@ import os
 
 import numpy as np
 
-from actors.asi_client import ASIClient
+from actors.rollout.asi_client import ASIClient
 from learner.errors import SfvError
 from services.training.config import TrainConfig
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
-from actors.humanoid import PhysicsConfig
-from actors.imitation_env import EnvConfig
-from actors.reward import RewardConfig
+from actors.character.humanoid import PhysicsConfig
+from actors.envs.imitation_env import EnvConfig
+from actors.envs.modes.sfv.reward import RewardConfig
 from learner.config import PPOConfig
 from learner.errors import ConfigError
 
@@ -147,7 +147,7 @@ def _upgrade(d: dict) -> dict:
         d["env"] = env
     if not env or "residual_action_scale" in env:
         return d
-    from actors.skeleton import LINK_NAMES
+    from actors.character.skeleton import LINK_NAMES
 
     d.setdefault("curriculum_start_s", 0.0)
     d.setdefault("asi_initial_std_scale", 1.0)

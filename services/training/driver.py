@@ -23,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.imitation_env import ImitationEnv
-from actors.motion_io import load_motion
-from actors.rollout_worker import RolloutWorker, WorkerSpec
-from actors.skeleton import LINK_NAMES
+from actors.envs.imitation_env import ImitationEnv
+from actors.motion.formats.io import load_motion
+from actors.rollout.worker import RolloutWorker, WorkerSpec
+from actors.character.skeleton import LINK_NAMES
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
 from learner.errors import NonFiniteError, SfvError
 from learner.ppo import PPOLearner

@@ -11,7 +11,7 @@ termination off, or with a looser rule), the environment is stepped with early t
 off and the clip's *strict* fall rule is checked after every control step
 (`FallDetector.for_clip(..., strict=True)`: DeepMimic's contact rule, every link but the feet
 and the links the clip allows such as the cartwheel's hands, plus a pelvis-height floor of
-`actors.falls.MIN_ROOT_HEIGHT`). A strict fall ends the episode (its step earns 0 when the
+`actors.envs.falls.MIN_ROOT_HEIGHT`). A strict fall ends the episode (its step earns 0 when the
 env's `zero_reward_on_fall` is set); a divergence (MuJoCo reset its state) ends it as a fall.
 A policy that kneels, sits or lies still is counted as fallen even when training let it go on.
 
@@ -32,7 +32,7 @@ Figures (one dict):
   same steps, each summed over episodes (1: it travelled as far as the clip; standing still: 0).
 - episodes; with pushes: pushes, push_impulse_ns, push_duration_s, push_episodes, push_survival_rate.
 
-Pushes (`pushes=N`, `sfv eval --push N`; the render's push code, `services/render/pushes.py`):
+Pushes (`pushes=N`, `sfv eval --push N`; the render's push code, `actors/envs/pushes.py`):
 each push is an impulse of `push_impulse` N s (default 40 N s: a 45 kg character's speed changes
 by ~0.9 m/s) applied to the root (pelvis) body as a constant horizontal force J / T for
 T = `push_duration_s` (0.1 s, rounded to whole control steps: 3 at 30 Hz), in a direction drawn
@@ -51,9 +51,9 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.falls import FallDetector
-from actors.features import NUM_REWARD_QUATS, RewardFeatures
-from actors.imitation_env import ImitationEnv
+from actors.envs.falls import FallDetector
+from actors.character.features import NUM_REWARD_QUATS, RewardFeatures
+from actors.envs.imitation_env import ImitationEnv
 from learner.errors import SfvError
 from services.training.config import TrainConfig
 
@@ -106,7 +106,7 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
         raise SfvError(f"evaluate: pushes must be >= 0, got {pushes}")
     schedule_config = None
     if pushes:
-        from services.render.pushes import PushConfig, PushSchedule, apply_push
+        from actors.envs.pushes import PushConfig, PushSchedule, apply_push
 
         defaults = PushConfig()
         schedule_config = PushConfig(count=pushes, impulse=defaults.impulse if push_impulse is None else float(push_impulse),
@@ -231,7 +231,7 @@ def evaluate_run(run_dir: str | Path | None, episodes: int = DEFAULT_EPISODES, s
     policy) on its motion (or `motion`)."""
     from threadpoolctl import threadpool_limits
 
-    from actors.motion_io import load_motion
+    from actors.motion.formats.io import load_motion
     from services.training.policy_source import load_policy_source
 
     source = load_policy_source(run_dir, onnx, motion, checkpoint)
@@ -269,7 +269,7 @@ class TrainingEvaluator:
 
         from threadpoolctl import threadpool_limits
 
-        from actors.motion_io import load_motion
+        from actors.motion.formats.io import load_motion
         from learner.policy import NumpyPolicy
 
         if self._env is None:

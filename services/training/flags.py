@@ -75,7 +75,7 @@ def _int_list(positive_only: bool, allow_none: bool):
 
 
 def _link_names(text: str) -> tuple[str, ...]:
-    from actors.skeleton import LINK_NAMES
+    from actors.character.skeleton import LINK_NAMES
 
     if text.strip().lower() == "none":
         return ()
@@ -325,7 +325,7 @@ def resolve(given: dict[str, Any], flags: dict[str, str], base: dict | None = No
     """The TrainConfig: `base` (a saved run config's dict; the defaults when None) with the
     given settings applied. On resume, an unsafe setting that differs from the run's is an
     SfvError naming its flag."""
-    from actors.reward import RewardConfig
+    from actors.envs.modes.sfv.reward import RewardConfig
     from services.training.config import TrainConfig
 
     config_dict = json.loads(json.dumps((TrainConfig() if base is None else TrainConfig.from_dict(base)).to_dict()))
@@ -351,8 +351,8 @@ def movingcam_preset(given: dict, flags: dict) -> tuple[dict, dict]:
     """`--reward movingcam`: the env's movingcam mode with 002's reward and termination defaults
     residual targets (eq. 1: q_target = q_ref + a) and adaptive tuple sampling (eq. 13), under
     whatever the user gave."""
-    from actors.imitation_env import EnvConfig
-    from actors.movingcam import MovingcamConfig
+    from actors.envs.imitation_env import EnvConfig
+    from actors.envs.modes.movingcam.tracking import MovingcamConfig
 
     # Adaptive tuple sampling (002 §5.2, eq. 13) comes with the mode, as in the paper.
     preset = {"env.mode": "movingcam", "env.residual_action_scale": EnvConfig().residual_action_scale or 0.5,

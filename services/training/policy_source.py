@@ -9,8 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from actors.imitation_env import EnvConfig, ImitationEnv
-from actors.motion_io import load_motion
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.motion.formats.io import load_motion
 from learner.errors import SfvError
 from services.training.run_dir import load_run, read_run_config
 

@@ -1,0 +1,120 @@
+"""From a policy action to the PD targets of MuJoCo's 28 position actuators.
+
+Actions are normalised: the policy's output lives in [-1, 1] per component (the env clips).
+Layout: the 8 spherical joints first, then the 4 revolute joints, each group in skeleton
+order (`skeleton.JOINT_NAMES` filtered), the same order as the actuators in `humanoid.py`.
+- "exp_map" (28-D, the default): per spherical joint the rotation vector directly, per
+  revolute an angle. DeepMimic's current code and MimicKit use it.
+- "axis_angle" (SFV's 36-D): per spherical joint (angle, axis x, y, z), the angle scaled by
+  pi, the axis normalised; per revolute joint one angle. The target is the rotation vector
+  angle * axis, which is what a MuJoCo ball-joint actuator measures. It has a dead point at
+  zero: (angle, axis) and (-angle, -axis) are the same target, so around a zero mean the
+  expected gradient on the 8 ball joints cancels and each step's noise throws the target in
+  a random 3-D direction (DeepMimic's 2018 code offset the default axis to escape it).
+Targets are absolute (+-1 reaches the farther limit of each axis) or, with `residual_scale`,
+residual: reference target + residual_scale (rad) * action, the dynamic-camera paper's
+eq. 1 (the zero action then tracks the reference instead of straightening every joint).
+Each target is then clipped to the joint's per-axis limits (Z-up axes).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from actors.character.skeleton import JOINT_LINKS, LINKS, NUM_ACTUATED_DOF, joint_limits_zup
+
+ACTION_PARAMETERISATIONS = ("axis_angle", "exp_map")
+SPHERICAL_LINKS = [i for i in JOINT_LINKS if LINKS[i].joint == "spherical"]
+REVOLUTE_LINKS = [i for i in JOINT_LINKS if LINKS[i].joint == "revolute"]
+NUM_SPHERICAL, NUM_REVOLUTE = len(SPHERICAL_LINKS), len(REVOLUTE_LINKS)
+SPH_CTRL = 3 * NUM_SPHERICAL  # 24: controls of spherical joints come first
+
+
+class ActionMapper:
+    def __init__(self, parameterisation: str = "exp_map", residual_scale: float | None = None):
+        if parameterisation not in ACTION_PARAMETERISATIONS:
+            raise ValueError(f"action parameterisation must be one of {ACTION_PARAMETERISATIONS}, got {parameterisation!r}")
+        if residual_scale is not None and (parameterisation != "exp_map" or not residual_scale > 0):
+            raise ValueError(f"residual targets need exp_map actions and a positive scale, got {parameterisation!r}, {residual_scale!r}")
+        self.parameterisation = parameterisation
+        self.residual_scale = residual_scale
+        limits = np.concatenate([joint_limits_zup(LINKS[i]) for i in SPHERICAL_LINKS + REVOLUTE_LINKS])  # (28, 2)
+        self.lower, self.upper = limits[:, 0].copy(), limits[:, 1].copy()
+        self.scale = np.maximum(np.abs(self.lower), np.abs(self.upper))
+        self.width = 4 if parameterisation == "axis_angle" else 3
+        self.sph_width = self.width * NUM_SPHERICAL
+        self.action_dim = self.sph_width + NUM_REVOLUTE
+        assert SPH_CTRL + NUM_REVOLUTE == NUM_ACTUATED_DOF
+        if residual_scale is not None:
+            self.scale = np.full_like(self.scale, residual_scale)
+        self._sph_scale, self._rev_scale = self.scale[:SPH_CTRL].copy(), self.scale[SPH_CTRL:].copy()
+        self._targets = np.zeros(NUM_ACTUATED_DOF)
+        self._scratch: tuple = (0,)  # (rows, clipped actions, their views, angles)
+        self._out_views: tuple = (None,)  # (out, its spherical, revolute and exp-map views)
+
+    @property
+    def residual(self) -> bool:
+        return self.residual_scale is not None
+
+    def targets(self, action: np.ndarray, out: np.ndarray | None = None, base: np.ndarray | None = None) -> np.ndarray:
+        """PD targets (28,) for one action; writes into `out` (e.g. MjData.ctrl) if given;
+        `base` (28,) is the reference target residual actions add to."""
+        targets = self._targets if out is None else out
+        self.targets_batch(np.asarray(action).reshape(1, -1), targets.reshape(1, -1), None if base is None else base.reshape(1, -1))
+        return targets
+
+    def _views(self, b: int, out: np.ndarray) -> tuple:
+        """Scratch for b rows and views into `out`, built once (slicing and reshaping cost
+        as much as the arithmetic on these few numbers)."""
+        if self._scratch[0] != b:
+            clipped = np.zeros((b, self.action_dim))
+            block = clipped[:, : self.sph_width].reshape(b, NUM_SPHERICAL, self.width)
+            angle = np.zeros((b, NUM_SPHERICAL))
+            self._scratch = (b, clipped, block[..., 0], block[..., 1:], clipped[:, : SPH_CTRL], clipped[:, self.sph_width:],
+                             angle, angle[..., None])
+        if self._out_views[0] is not out:
+            self._out_views = (out, out[:, :SPH_CTRL].reshape(b, NUM_SPHERICAL, 3), out[:, :SPH_CTRL], out[:, SPH_CTRL:])
+        return self._scratch + self._out_views[1:]
+
+    def targets_batch(self, actions: np.ndarray, out: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
+        """PD targets (B, 28) for a batch of actions (B, action_dim), into `out`; residual
+        actions add to `base` (B, 28), each env's reference targets.
+
+        Plain ufunc calls with `out=` into fixed buffers: this runs every control step."""
+        _, a, first, axis, exp_part, revolute, angle, angle_col, sph, out_sph, out_rev = self._views(actions.shape[0], out)
+        np.minimum(actions, 1.0, out=a)
+        np.maximum(a, -1.0, out=a)
+        if self.parameterisation == "axis_angle":
+            np.sqrt(np.vecdot(axis, axis, out=angle), out=angle)
+            np.maximum(angle, 1e-6, out=angle)
+            np.divide(first, angle, out=angle)
+            angle *= np.pi
+            np.multiply(axis, angle_col, out=sph)
+        else:
+            np.multiply(exp_part, self._sph_scale, out=out_sph)
+        np.multiply(revolute, self._rev_scale, out=out_rev)
+        if self.residual_scale is not None:
+            if base is None:
+                raise ValueError("residual actions need the reference targets (base)")
+            out += base
+        np.minimum(out, self.upper, out=out)
+        np.maximum(out, self.lower, out=out)
+        return out
+
+    def action_for_targets(self, targets: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
+        """An action whose targets are `targets` (inverse map, within limits); for tests and
+        for driving the character with the reference pose. Residual actions are relative
+        to `base` (zero when not given)."""
+        action = np.zeros(self.action_dim)
+        if self.residual_scale is not None and base is not None:
+            targets = np.asarray(targets, dtype=np.float64) - base
+        rv = np.asarray(targets[:SPH_CTRL], dtype=np.float64).reshape(NUM_SPHERICAL, 3)
+        if self.parameterisation == "axis_angle":
+            angle = np.linalg.norm(rv, axis=1)
+            axis = np.where(angle[:, None] > 1e-9, rv / np.maximum(angle, 1e-9)[:, None], np.array([1.0, 0, 0]))
+            block = action[: self.sph_width].reshape(NUM_SPHERICAL, 4)
+            block[:, 0] = angle / np.pi
+            block[:, 1:] = axis
+        else:
+            action[:SPH_CTRL] = rv.ravel() / self.scale[:SPH_CTRL]
+        action[self.sph_width:] = targets[SPH_CTRL:] / self.scale[SPH_CTRL:]
+        return action

@@ -1,0 +1,42 @@
+"""The Character interface: the simulated body an env puts in an arena.
+
+A character describes itself (links, joints, their PD gains and torque limits, end effectors,
+the links always allowed on the ground, its left/right mirror map, the imitation reward's
+per-joint weights, and the sizes of its own coordinates: qpos, qvel, actuators) and builds its
+MuJoCo model in an arena (`build(physics, arena)`: the compiled character with its bodies'
+ids and each joint's qpos / DoF addresses, `joint_qpos_adr`, `joint_dof_adr`). An arena's
+props come after the character's own coordinates, so `qpos[:nq]`, `qvel[:nv]` and `ctrl[:nu]`
+are the character's whatever the arena holds. `humanoid3d` (DeepMimic's humanoid,
+`actors/character/humanoid3d.py`) is the first; a robot is another `Character`.
+"""
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+
+
+class Character(Protocol):
+    name: str
+    link_names: tuple[str, ...]
+    joint_names: tuple[str, ...]  # the actuated joints, in motion-file order
+    joint_is_spherical: np.ndarray  # (joints,) bool: 3-DoF ball or 1-DoF hinge
+    nq: int  # the character's own qpos size (a free root first)
+    nv: int  # its qvel size
+    nu: int  # its actuators: the PD targets an action sets
+    kp: np.ndarray  # (joints,) PD gains
+    kd: np.ndarray
+    torque_limits: np.ndarray  # (joints,) N m
+    end_effector_links: np.ndarray  # link indices (the reward's end effectors)
+    feet: tuple[str, ...]  # links always allowed on the ground (every clip's fall rule allows them)
+    link_mirror: np.ndarray  # link -> its left/right partner
+    joint_mirror: np.ndarray  # joint -> its partner
+    reward_joint_weights: dict[str, float]  # the imitation reward's per-joint weights, by link name
+
+    def mjcf(self, physics, arena=None) -> str:
+        """MJCF text of the character in `arena`."""
+        ...
+
+    def build(self, physics, arena=None):
+        """The compiled character in `arena` (model, body ids, joint qpos / DoF addresses)."""
+        ...

@@ -1,0 +1,1 @@
+"""The sfv mode: DeepMimic/SFV imitation of the whole reference, root path included."""

@@ -1,0 +1,64 @@
+"""Settings of a task environment (NPMP 004 §3.4 and Supp. D; Merel et al. 2019's go-to-target).
+
+One frozen dataclass for both tasks and both action spaces, so a task run's config.json holds
+everything a rollout worker, `sfv task eval` and the renderer need to rebuild the env.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from actors.character.humanoid import PhysicsConfig, control_substeps
+
+TASKS = ("go_to", "push_box")
+ACTION_SPACES = ("latent", "joint")
+
+
+@dataclass(frozen=True)
+class TaskEnvConfig:
+    task: str = field(default="go_to", metadata={"choices": TASKS, "help": "go_to (a target at a requested speed and heading) or push_box"})
+    action: str = field(default="latent", metadata={"choices": ACTION_SPACES, "help": "latent: the policy outputs z for the frozen decoder; joint: absolute exp-map PD targets, from scratch"})
+    module: str | None = field(default=None, metadata={"help": "motor module directory (config.json, decoder.npz, decoder.onnx); needed for --action latent"})
+    latent_scale: float = field(default=1.0, metadata={"help": "z = latent_scale x action: the policy's [-1, 1] action box maps to +-latent_scale prior standard deviations"})
+    control_hz: float = field(default=30.0, metadata={"help": "policy (and decoder) queries per second"})
+    physics: PhysicsConfig = field(default_factory=PhysicsConfig, metadata={"help": "MuJoCo model settings"})
+    horizon_s: float = field(default=10.0, metadata={"help": "episode length (seconds); the horizon truncates, a fall terminates"})
+    start_motion: str = field(default="deepmimic:walk", metadata={"help": "episodes start from a random frame of this clip (a pose the experts know), moved to the origin"})
+    # go-to
+    target_distance: tuple[float, float] = field(default=(2.0, 5.0), metadata={"help": "go-to: target distance range (m), direction uniform on the circle"})
+    speed_range: tuple[float, float] = field(default=(0.8, 2.5), metadata={"help": "go-to: requested speed range (m/s), drawn per target"})
+    heading_spread: float = field(default=0.5, metadata={"help": "go-to: requested heading = direction to the target + U(-spread, spread) rad"})
+    success_radius: float = field(default=0.5, metadata={"help": "go-to: a target within this many metres of the root is reached; push-box: the box within this of its target"})
+    success_bonus: float = field(default=5.0, metadata={"help": "reward on reaching a target (a new target is drawn at once)"})
+    # push-box
+    box_distance: tuple[float, float] = field(default=(1.0, 2.0), metadata={"help": "push-box: box distance range from the character (m), ahead within +-45 deg"})
+    box_target_distance: tuple[float, float] = field(default=(1.0, 2.0), metadata={"help": "push-box: target distance from the box (m), within +-45 deg of the walker-to-box direction"})
+
+    def __post_init__(self):
+        for name in ("target_distance", "speed_range", "box_distance", "box_target_distance"):
+            object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
+
+    @property
+    def substeps(self) -> int:
+        return control_substeps(self.physics, self.control_hz)
+
+    @property
+    def horizon_steps(self) -> int:
+        return max(1, int(round(self.horizon_s * self.control_hz)))
+
+    def problems(self) -> list[str]:
+        """Every bad setting, as `--flag: fault` lines (the service layer raises them as one SfvError)."""
+        out = []
+        if self.task not in TASKS:
+            out.append(f"task must be one of {', '.join(TASKS)}, got {self.task!r}")
+        if self.action not in ACTION_SPACES:
+            out.append(f"--action must be one of {', '.join(ACTION_SPACES)}, got {self.action!r}")
+        if self.action == "latent" and not self.module:
+            out.append("--action latent needs --module MODULE_DIR (a distilled motor module)")
+        for name in ("latent_scale", "control_hz", "horizon_s", "success_radius"):
+            if not getattr(self, name) > 0:
+                out.append(f"--{name.replace('_', '-')} must be positive, got {getattr(self, name)}")
+        for name in ("target_distance", "speed_range", "box_distance", "box_target_distance"):
+            lo, hi = getattr(self, name)
+            if not 0 < lo <= hi:
+                out.append(f"--{name.replace('_', '-')} must be 0 < low <= high, got {lo}, {hi}")
+        return out

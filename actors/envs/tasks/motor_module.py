@@ -1,0 +1,53 @@
+"""The one seam to the frozen motor module's decoder (NPMP 004 §3.3-3.4).
+
+Contract with the motor-module code (issue 16 item 3, `learner/motor_decoder.py`):
+`LatentDecoder.load(MODULE_DIR)` then `decoder(proprio (B, 196) float32, z (B, L)) ->
+(B, 28)` absolute PD targets in radians. Proprioception is the first 196 entries of
+`FeatureExtractor`'s observation (height, link positions, rotations, linear and angular
+velocities in the heading frame: no phase, no reference), which is what the task env computes
+for every env in one batched pass. Anything that depends on how the decoder is stored stays
+in this file.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from actors.character.features import OBS_DIM
+from learner.errors import SfvError
+
+PROPRIO_DIM = OBS_DIM - 1  # the observation without its phase: 196
+_LATENT_KEYS = ("latent_size", "latent_dim", "z_dim")
+
+
+def load_decoder(module_dir: str | Path):
+    """(decoder, latent size) of a motor module directory; one-line SfvError when it is not one."""
+    path = Path(module_dir)
+    if not (path / "config.json").is_file():
+        raise SfvError(f"{path}: not a motor module (no config.json; `sfv distill` writes one)")
+    try:
+        from learner.motor_decoder import LatentDecoder
+    except ImportError as exc:
+        raise SfvError(f"{path}: the motor-module decoder (learner/motor_decoder.py) is not installed ({exc})") from None
+    decoder = LatentDecoder.load(path)
+    return decoder, latent_size(decoder, path)
+
+
+def latent_size(decoder, module_dir: Path) -> int:
+    for key in _LATENT_KEYS:
+        value = getattr(decoder, key, None)
+        if value is not None:
+            return int(value)
+    config = json.loads((Path(module_dir) / "config.json").read_text())
+    for section in (config, config.get("module", {}), config.get("model", {})):
+        for key in _LATENT_KEYS:
+            if isinstance(section, dict) and key in section:
+                return int(section[key])
+    raise SfvError(f"{module_dir}/config.json: no latent size ({' / '.join(_LATENT_KEYS)})")
+
+
+def decode(decoder, proprio: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """(B, 28) float64 PD targets for a batch."""
+    return np.asarray(decoder(np.ascontiguousarray(proprio, np.float32), np.ascontiguousarray(z, np.float32)), np.float64)

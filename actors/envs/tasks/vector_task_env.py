@@ -1,0 +1,186 @@
+"""M task envs in one process, stepped together (`actors/envs/vector_env.py`'s pattern).
+
+Each control step: the action space turns the (M, A) actions into PD targets in one batched
+call (for latent actions that is the frozen decoder on every env's proprioception), MuJoCo
+steps each env, the features of all envs are computed in one pass, and the task scores them.
+Observations are the 196 proprioceptive features (`FeatureExtractor`'s observation without
+its phase; what the decoder sees) followed by the task's features in the heading frame. A
+finished env is reset at once (auto-reset) and its episode is logged: return, length, fall,
+whether and when the first target was reached, targets reached.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from actors.character.features import OBS_DIM, FeatureExtractor
+from actors.character.humanoid3d import HUMANOID3D
+from actors.envs.simulator import MujocoSimulator
+from actors.envs.tasks.action_spaces import make_action_space
+from actors.envs.tasks.config import TaskEnvConfig
+from actors.envs.tasks.floor_fall import FloorFall
+from actors.envs.tasks.go_to import GoToTask
+from actors.envs.tasks.motor_module import PROPRIO_DIM
+from actors.envs.tasks.push_box import PushBoxTask
+from actors.envs.tasks.starts import ClipStarts
+
+TASK_CLASSES = {"go_to": GoToTask, "push_box": PushBoxTask}
+WALKER_NQ, WALKER_NV = HUMANOID3D.nq, HUMANOID3D.nv  # the character's own coordinates come first (props follow it)
+
+
+@dataclass
+class TaskEpisodeLog:
+    """Finished episodes since the last `drain()`."""
+
+    returns: list = field(default_factory=list)
+    normalized_returns: list = field(default_factory=list)  # return / horizon steps: the mean reward per step of a full episode
+    discounted_returns: list = field(default_factory=list)
+    lengths: list = field(default_factory=list)
+    fell: list = field(default_factory=list)
+    successes: list = field(default_factory=list)  # reached at least one target
+    first_success_s: list = field(default_factory=list)  # seconds to the first target (nan: none)
+    targets_reached: list = field(default_factory=list)
+
+    def drain(self) -> dict[str, np.ndarray]:
+        out = {k: np.asarray(v, np.float32) for k, v in self.__dict__.items()}
+        out["fell"] = out["fell"].astype(bool)
+        out["successes"] = out["successes"].astype(bool)
+        for v in self.__dict__.values():
+            v.clear()
+        return out
+
+
+class VectorTaskEnv:
+    def __init__(self, config: TaskEnvConfig, num_envs: int, seed: int = 0, gamma: float = 0.95):
+        task_class = TASK_CLASSES[config.task]
+        self.config = config
+        self.num_envs = m = num_envs
+        self.gamma = gamma
+        self.humanoid = HUMANOID3D.build(config.physics, task_class.arena)
+        self.model = self.humanoid.model
+        self.datas = [mujoco.MjData(self.model) for _ in range(m)]
+        self.sim = MujocoSimulator([self.model] * m, self.datas, config.substeps)
+        self.task = task_class(config, m, self.model)
+        self.action_space = make_action_space(config)
+        self.starts = ClipStarts(config.start_motion, config.physics, 1.0 / config.control_hz)
+        self.features = FeatureExtractor(self.humanoid, m)
+        self.fall = FloorFall(self.humanoid)
+        self.substeps = config.substeps
+        self.rng = np.random.default_rng(seed)
+        self.obs_dim = PROPRIO_DIM + self.task.obs_dim
+        self.action_dim = self.action_space.action_dim
+        self.obs = np.zeros((m, self.obs_dim), np.float32)
+        self.final_obs = np.zeros_like(self.obs)
+        self.rewards = np.zeros(m, np.float32)
+        self.terminated = np.zeros(m, bool)
+        self.truncated = np.zeros(m, bool)
+        self.reached = np.zeros(m, bool)
+        self._full = np.zeros((m, OBS_DIM))
+        self._task_obs = np.zeros((m, self.task.obs_dim))
+        self._targets = np.zeros((m, self.model.nu))
+        self._fell = np.zeros(m, bool)
+        self._diverged = np.zeros(m, bool)
+        self._ret, self._disc, self._discount = np.zeros(m), np.zeros(m), np.ones(m)
+        self._len = np.zeros(m, np.int64)
+        self._hits = np.zeros(m, np.int64)
+        self._first_hit = np.full(m, -1, np.int64)
+        self._max_steps = config.horizon_steps
+        self._cap: int | None = None
+        self._limit = np.full(m, self._max_steps, np.int64)  # each env's episode length
+        self.episodes = TaskEpisodeLog()
+
+    # ---------------------------------------------------------------- episodes
+    @property
+    def max_episode_steps(self) -> int:
+        return self._max_steps
+
+    @property
+    def rows(self) -> np.ndarray:
+        """Each env's control steps since its episode began: a task's "frame" (what the rollout
+        worker ships for adaptive tuple sampling; tasks have no reference row)."""
+        return self._len
+
+    def set_horizon(self, seconds: float | None) -> None:
+        """Cap episodes that start from now on (the driver's curriculum seam); None: the config's horizon."""
+        self._cap = None if seconds is None else max(1, int(round(seconds * self.config.control_hz)))
+
+    def reset(self) -> np.ndarray:
+        for i in range(self.num_envs):
+            self._reset_env(i)
+        self._observe()
+        return self.obs
+
+    def _reset_env(self, i: int) -> None:
+        data = self.sim.reset(i)
+        qpos, qvel = self.starts.take(self.rng)
+        data.qpos[:WALKER_NQ], data.qvel[:WALKER_NV] = qpos, qvel
+        self.sim.forward(i)
+        yaw = float(np.arctan2(data.xmat[1, 3], data.xmat[1, 0]))
+        self.task.reset(i, data.qpos[:2].copy(), yaw, self.rng, data)
+        mujoco.mj_forward(self.model, data)
+        data.ctrl[:] = data.actuator_length  # hold the start pose: no jerk in the first substeps
+        self.features.capture(i, data)
+        self.task.capture(i, data)
+        self._ret[i] = self._disc[i] = 0.0
+        self._discount[i] = 1.0
+        self._len[i] = self._hits[i] = 0
+        self._first_hit[i] = -1
+        self._limit[i] = self._max_steps if self._cap is None else min(self._cap, self._max_steps)
+
+    # -------------------------------------------------------------------- step
+    def step(self, actions: np.ndarray):
+        """Step every env; returns views of (obs, rewards, terminated, truncated, final_obs)
+        with `final_obs[i]` the true successor of a reset env (for bootstrapping)."""
+        targets = self.action_space.targets(actions, self.obs[:, :PROPRIO_DIM], self._targets)
+        self.sim.step(targets, self._fell, self._diverged, self.fall, (self.features.capture, self.task.capture))
+        root_xy, vel_xy, yaw = self._planar()
+        rewards, reached = self.task.rewards(root_xy, vel_xy, yaw, self.rng)
+        rewards[self._fell | self._diverged] = 0.0  # the falling step earns nothing
+        self.rewards[:] = rewards
+        self.reached[:] = reached
+        self._observe()
+        self.final_obs[:] = self.obs
+        self._book(rewards, reached)
+        self.terminated[:] = self._fell | self._diverged
+        self.truncated[:] = ~self.terminated & (self._len >= self._limit)
+        ended = np.flatnonzero(self.terminated | self.truncated)
+        for i in ended:
+            self._record(i)
+            self._reset_env(i)
+        if len(ended):
+            self._observe()
+        return self.obs, self.rewards, self.terminated, self.truncated, self.final_obs
+
+    def _planar(self):
+        f = self.features
+        yaw = np.arctan2(f.root_xmat[:, 3], f.root_xmat[:, 0])
+        return f.pos[:, 0, :2], f.com_vel[:, :2], yaw
+
+    def _observe(self) -> None:
+        f = self.features
+        f.observations(0.0, self._full, f.heading())
+        self.obs[:, :PROPRIO_DIM] = self._full[:, :PROPRIO_DIM]
+        root_xy, vel_xy, yaw = self._planar()
+        self.obs[:, PROPRIO_DIM:] = self.task.features(root_xy, vel_xy, yaw, self._task_obs)
+
+    def _book(self, rewards: np.ndarray, reached: np.ndarray) -> None:
+        self._ret += rewards
+        self._disc += self._discount * rewards
+        self._discount *= self.gamma
+        self._len += 1
+        self._hits += reached
+        first = reached & (self._first_hit < 0)
+        self._first_hit[first] = self._len[first]
+
+    def _record(self, i: int) -> None:
+        log = self.episodes
+        log.returns.append(self._ret[i])
+        log.normalized_returns.append(self._ret[i] / self._max_steps)
+        log.discounted_returns.append(self._disc[i])
+        log.lengths.append(self._len[i])
+        log.fell.append(bool(self._fell[i] or self._diverged[i]))
+        log.successes.append(self._hits[i] > 0)
+        log.first_success_s.append(self._first_hit[i] / self.config.control_hz if self._first_hit[i] >= 0 else np.nan)
+        log.targets_reached.append(self._hits[i])

@@ -1,0 +1,134 @@
+"""`ReferenceMotion`: a clip the character imitates, sampled at any time.
+
+A clip is a root trajectory plus the local rotation of each of the 12 joints (quaternions,
+revolute joints as rotations about the hinge axis), in the Z-up frame of `skeleton.py`.
+Frames may be unevenly spaced (`frame_times`). Poses between frames are slerped; velocities
+are finite differences between frames, linearly interpolated. A looped clip repeats with its
+horizontal root displacement accumulated per cycle (the "cyclic root offset"), so a walk
+keeps walking forward instead of jumping back to the start.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from actors.character import quaternion as qn
+from actors.character.kinematics import forward_kinematics
+from actors.character.skeleton import NUM_JOINTS
+from learner.errors import SfvError
+
+
+class MotionFormatError(SfvError, ValueError):
+    """A motion file is malformed; the message names the file and the fault (any format)."""
+
+@dataclass
+class MotionPose:
+    """A pose and its velocities at one instant (root linear velocity in world frame,
+    root angular velocity in the root frame, joint angular velocities in each child frame:
+    the conventions of MuJoCo's free and ball joints)."""
+
+    root_pos: np.ndarray
+    root_rot: np.ndarray
+    joint_rot: np.ndarray
+    root_lin_vel: np.ndarray
+    root_ang_vel: np.ndarray
+    joint_ang_vel: np.ndarray
+
+
+@dataclass
+class ReferenceMotion:
+    name: str
+    frame_times: np.ndarray  # (T,) seconds, strictly increasing, starting at 0
+    root_pos: np.ndarray  # (T, 3) metres, Z up
+    root_rot: np.ndarray  # (T, 4) unit quaternions (w, x, y, z)
+    joint_rot: np.ndarray  # (T, 12, 4) unit quaternions, parent-local
+    loop: bool = False
+    extras: dict = field(default_factory=dict)  # arrays carried along in the file (keypoints, ...)
+    source: str | None = field(default=None, compare=False)  # the file it was loaded from (for error messages)
+
+    def __post_init__(self):
+        self.frame_times = np.asarray(self.frame_times, dtype=np.float64)
+        self._compute_frame_velocities()
+
+    # ----------------------------------------------------------------- properties
+    @property
+    def num_frames(self) -> int:
+        return len(self.frame_times)
+
+    @property
+    def duration(self) -> float:
+        return float(self.frame_times[-1])
+
+    @property
+    def fps(self) -> float:
+        return float((self.num_frames - 1) / self.duration)
+
+    @property
+    def cycle_offset(self) -> np.ndarray:
+        """Horizontal root displacement over one pass of the clip (zero unless looped)."""
+        offset = self.root_pos[-1] - self.root_pos[0]
+        offset[2] = 0.0
+        return offset if self.loop else np.zeros(3)
+
+    def root_front(self, frame: int = 0) -> np.ndarray:
+        """World direction of the root's +x (its front) at a frame (a scene's axes read it)."""
+        return qn.quat_rotate(self.root_rot[frame], np.array([1.0, 0.0, 0.0]))
+
+    def link_positions(self, frame: int = 0) -> np.ndarray:
+        """(links, 3) world positions of the character's links at a frame (forward kinematics)."""
+        links, _ = forward_kinematics(self.root_pos[frame], self.root_rot[frame], self.joint_rot[frame])
+        return links
+
+    # ------------------------------------------------------------------- sampling
+    def _locate(self, t: np.ndarray):
+        """Cycle count, frame index i and blend weight w such that time t lies in [i, i+1]."""
+        t = np.asarray(t, dtype=np.float64)
+        if self.loop:
+            cycles = np.floor(t / self.duration)
+            local = t - cycles * self.duration
+        else:
+            cycles = np.zeros_like(t)
+            local = np.clip(t, 0.0, self.duration)
+        i = np.clip(np.searchsorted(self.frame_times, local, side="right") - 1, 0, self.num_frames - 2)
+        w = (local - self.frame_times[i]) / (self.frame_times[i + 1] - self.frame_times[i])
+        return cycles, i, np.clip(w, 0.0, 1.0)
+
+    def sample(self, t) -> MotionPose:
+        """Pose and velocities at time(s) t (scalar or array; leading dims follow t)."""
+        cycles, i, w = self._locate(t)
+        wv = w[..., None]
+        root_pos = (1 - wv) * self.root_pos[i] + wv * self.root_pos[i + 1] + cycles[..., None] * self.cycle_offset
+        root_rot = qn.quat_slerp(self.root_rot[i], self.root_rot[i + 1], w)
+        joint_rot = qn.quat_slerp(self.joint_rot[i], self.joint_rot[i + 1], w[..., None])
+        lerp = lambda a: (1 - w.reshape(w.shape + (1,) * (a.ndim - 1))) * a[i] + w.reshape(w.shape + (1,) * (a.ndim - 1)) * a[i + 1]
+        return MotionPose(root_pos, root_rot, joint_rot, lerp(self._root_lin_vel), lerp(self._root_ang_vel), lerp(self._joint_ang_vel))
+
+    def phase(self, t) -> np.ndarray:
+        """Phase in [0, 1]: 0 at the clip's start, 1 at its end (wrapping for loops)."""
+        t = np.asarray(t, dtype=np.float64)
+        if self.loop:
+            return np.mod(t, self.duration) / self.duration
+        return np.clip(t / self.duration, 0.0, 1.0)
+
+    # ----------------------------------------------------------------- velocities
+    def _compute_frame_velocities(self):
+        dt = np.diff(self.frame_times)[:, None]
+        lin = np.diff(self.root_pos, axis=0) / dt
+        # Angular velocity in the child frame: log(q_t^-1 q_{t+1}) / dt, as MuJoCo's ball joints.
+        root_ang = qn.quat_to_axis_angle(qn.quat_mul(qn.quat_conj(self.root_rot[:-1]), self.root_rot[1:])) / dt
+        joint_ang = qn.quat_to_axis_angle(qn.quat_mul(qn.quat_conj(self.joint_rot[:-1]), self.joint_rot[1:])) / dt[:, :, None]
+        # The last frame repeats the previous frame's velocity; a loop's first and last frames match.
+        self._root_lin_vel = np.concatenate((lin, lin[-1:]))
+        self._root_ang_vel = np.concatenate((root_ang, root_ang[-1:]))
+        self._joint_ang_vel = np.concatenate((joint_ang, joint_ang[-1:]))
+
+    def summary(self) -> dict:
+        return {
+            "name": self.name,
+            "frames": self.num_frames,
+            "duration": round(self.duration, 6),
+            "fps": round(self.fps, 6),
+            "loop": self.loop,
+            "joints": NUM_JOINTS,
+        }

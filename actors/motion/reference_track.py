@@ -1,0 +1,88 @@
+"""A reference motion tabulated at the control rate, ready for O(1) lookups per step.
+
+Episodes start on the control-step grid (k0 * dt), so the reference at every step of every
+episode is a row of this table. Each row holds the reference's qpos / qvel (to start an
+episode on it), its PD targets (the actuator lengths of the reference pose, what residual
+actions add to) and the reward's kinematic features, computed once with MuJoCo itself on a
+scratch MjData, so the reward compares like with like.
+"""
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from actors.character.features import OBS_DIM, FeatureExtractor, RewardFeatures, update_kinematics
+from actors.character.humanoid import Humanoid
+from actors.motion.reference_motion import ReferenceMotion
+from actors.character.skeleton import NUM_LINKS
+from actors.character.state import StateLayout
+
+
+class ReferenceTrack:
+    def __init__(self, motion: ReferenceMotion, humanoid: Humanoid, control_dt: float, horizon_s: float):
+        self.motion = motion
+        self.dt = control_dt
+        # Start indices cover one pass of the clip; looped episodes then run `horizon` steps.
+        self.start_steps = max(1, int(round(motion.duration / control_dt)))
+        if motion.loop:
+            self.horizon_steps = int(round(horizon_s / control_dt))
+            rows = self.start_steps + self.horizon_steps + 1
+        else:
+            self.horizon_steps = self.start_steps
+            rows = self.start_steps + 1
+        times = np.minimum(np.arange(rows) * control_dt, math.inf if motion.loop else motion.duration)
+        self.times = times
+        self.phase = motion.phase(times)
+        if not motion.loop:
+            self.phase[-1] = 1.0
+        layout = StateLayout(humanoid)
+        model = humanoid.model
+        self.qpos = np.zeros((rows, model.nq))
+        self.qvel = np.zeros((rows, model.nv))
+        self.features = RewardFeatures.zeros(model.nv, rows)
+        self.ctrl = np.zeros((rows, model.nu))
+        scratch = mujoco.MjData(model)
+        features = FeatureExtractor(humanoid)
+        # The reference's own pose as the policy observes a pose: root height, link positions
+        # relative to the root in the heading frame (`actors/envs/reference_obs.py`).
+        self.pose_obs = np.zeros((rows, 1 + 3 * NUM_LINKS))
+        observation = np.zeros((1, OBS_DIM))
+        poses = motion.sample(times)
+        for k in range(rows):
+            pose_k = type(poses)(*(getattr(poses, f)[k] for f in poses.__dataclass_fields__))
+            layout.pose_to_qpos_qvel(pose_k, self.qpos[k], self.qvel[k])
+            scratch.qpos[:] = self.qpos[k]
+            scratch.qvel[:] = self.qvel[k]
+            update_kinematics(model, scratch)
+            mujoco.mj_transmission(model, scratch)  # actuator_length: the pose as PD targets
+            self.ctrl[k] = scratch.actuator_length
+            self.features.values[k] = features.reward_features_of(scratch).values[0]
+            features.observations(self.phase[k], observation)  # the rows just captured
+            self.pose_obs[k] = observation[0, :1 + 3 * NUM_LINKS]
+        self._rows = [self.features.slice(slice(k, k + 1)) for k in range(rows)]  # views, built once
+
+    def reward_features(self, row: int) -> RewardFeatures:
+        """Row `row` as a batch of one (a view)."""
+        return self._rows[row]
+
+    @property
+    def com(self) -> np.ndarray:
+        return self.features.com
+
+    @property
+    def end_effectors(self) -> np.ndarray:
+        return self.features.end_effectors
+
+    @property
+    def rows(self) -> int:
+        return len(self.times)
+
+    def episode_steps(self, start: int) -> int:
+        """Control steps an episode starting at row `start` may run (its maximum length)."""
+        return self.horizon_steps if self.motion.loop else self.start_steps - start
+
+    def start_index(self, phase: float) -> int:
+        """The grid row nearest to a phase in [0, 1]; the clip's last frame is not a start."""
+        return int(min(round(phase * self.start_steps), self.start_steps - (0 if self.motion.loop else 1)) % self.start_steps)

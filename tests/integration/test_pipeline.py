@@ -1,0 +1,42 @@
+"""`sfv pipeline` on the real shared video: pose (Ray tasks) -> reconstruction (Ray task) -> training."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from actors.motion.formats.io import load_motion
+from services.training.run_dir import read_metrics
+
+pytestmark = pytest.mark.integration
+
+
+def test_pipeline_video_to_controller(tmp_path, shared_dir):
+    video = shared_dir / "data" / "video" / "pose2sim_balancing" / "cam01.mp4"
+    models = shared_dir / "models" / "blazepose"
+    if not video.exists() or not (models / "pose_landmark_full.tflite").exists():
+        pytest.skip("shared video or BlazePose models absent")
+    out = tmp_path / "pipe"
+    cmd = [sys.executable, "-m", "services.cli", "pipeline", str(video), "--out", str(out), "--pose-models", str(models),
+           "--iterations", "40", "--workers", "2", "--envs-per-worker", "2", "--init", "rsi", "--samples", "128",
+           "--batch-size", "128", "--quiet"]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    summary = json.loads(done.stdout.strip().splitlines()[-1])
+    motion = load_motion(summary["motion"])
+    assert motion.num_frames == 100 and abs(motion.fps - 60.0) < 0.5
+    assert "keypoints3d" in motion.extras
+    rows = read_metrics(out / "train")
+    assert rows and rows[-1]["samples"] == 128
+
+
+def test_pipeline_rejects_a_file_that_is_not_a_video(tmp_path):
+    bad = tmp_path / "clip.mp4"
+    bad.write_text("not a video")
+    done = subprocess.run([sys.executable, "-m", "services.cli", "pipeline", str(bad), "--out", str(tmp_path / "o")],
+                          capture_output=True, text=True, timeout=300)
+    last = done.stderr.strip().splitlines()[-1]  # FFmpeg may log its own line first
+    assert done.returncode == 2 and last.startswith("sfv: ") and "clip.mp4" in last
+    assert not (tmp_path / "o" / "motion.npz").exists()

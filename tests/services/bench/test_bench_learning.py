@@ -1,0 +1,158 @@
+"""`sfv bench --suite learning`: a tiny grid end to end (serial workers), its rerun, resume and input checks."""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from services.cli import main
+
+pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")
+
+REPO = Path(__file__).resolve().parents[3]
+RUNS = ("walk_asi_s0", "walk_rsi_s0")
+FLAGS = ["--serial", "--workers", "1", "--envs-per-worker", "4", "--batch-size", "256", "--minibatch-size", "64",
+         "--samples", "600", "--eval-every", "600", "--eval-episodes", "2", "--final-episodes", "4", "--skills", "deepmimic:walk", "--inits", "asi,rsi", "--quiet"]
+
+
+def bench(out_dir: Path, *extra: str) -> tuple[int, str, float]:
+    stdout = io.StringIO()
+    start = time.perf_counter()
+    with contextlib.redirect_stdout(stdout):
+        code = main(["bench", "--suite", "learning", "--out-dir", str(out_dir), *FLAGS, *extra])
+    return code, stdout.getvalue(), time.perf_counter() - start
+
+
+def checkpoints(out_dir: Path) -> dict[str, int]:
+    return {str(p.relative_to(out_dir)): p.stat().st_mtime_ns for p in sorted((out_dir / "runs").glob("*/checkpoint_*.pt"))}
+
+
+@pytest.fixture(scope="module")
+def grid(tmp_path_factory):
+    out_dir = tmp_path_factory.mktemp("learning") / "out"
+    code, stdout, seconds = bench(out_dir)
+    return out_dir, code, stdout, seconds
+
+
+def test_grid_writes_runs_figures_curves_and_plot(grid):
+    out_dir, code, stdout, seconds = grid
+    assert code == 0, stdout
+    doc = json.loads((out_dir / "learning.json").read_text())
+    assert doc["format"] == "sfv-learning-1" and doc["command"].startswith("sfv bench --suite learning")
+    assert set(doc["runs"]) == set(RUNS)
+    for name, init in zip(RUNS, ("asi", "rsi")):
+        run = doc["runs"][name]
+        assert (run["status"], run["skill"], run["init"], run["seed"]) == ("complete", "deepmimic:walk", init, 0)
+        assert run["config"]["samples"] == 600 and run["config"]["batch_size"] == 256 and run["config"]["serial"] is True
+        assert run["samples"] >= 600 and run["wall_s"] > 0 and run["samples_per_s"] == pytest.approx(run["samples"] / run["wall_s"])
+        assert run["resumes"] == 0 and (out_dir / run["run_dir"] / "config.json").is_file()
+        ev = run["eval"]
+        assert ev["episodes"] == 4 and 0.0 <= ev["normalized_return"] <= 1.0 and 0.0 <= ev["fall_rate"] <= 1.0
+        assert ev["episode_length"] > 0
+        train = run["curve"]["train"]
+        assert train["samples"] == sorted(train["samples"]) and train["samples"][-1] == run["samples"]
+        assert len(train["normalized_return"]) == len(train["samples"]) >= 2
+        evals = run["curve"]["eval"]  # the trainer's eval/ rows: every --eval-every samples and at the end
+        assert evals["samples"] and evals["samples"][-1] == run["samples"] and evals["eval/episodes"][-1] == 2
+        assert len(evals["eval/normalized_return"]) == len(evals["samples"]) and run["threshold_source"] == "eval"
+        assert run["samples_to_threshold"] is None or run["samples_to_threshold"] <= run["samples"]
+    assert (out_dir / "learning.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not list(out_dir.glob(".*.tmp")), "a temporary file was left behind"
+    lines = stdout.splitlines()
+    finished = [line for line in lines if line.startswith("deepmimic:walk ")]
+    assert [line.split(":", 2)[1] for line in finished] == ["walk asi seed 0", "walk rsi seed 0"]
+    assert all("eval NR" in line and "fall rate" in line and "min" in line for line in finished)
+    assert "| deepmimic:walk | asi | 1 |" in stdout and "| deepmimic:walk | rsi | 1 |" in stdout
+
+
+def test_rerun_skips_complete_runs(grid):
+    out_dir = grid[0]
+    before_ckpt, before = checkpoints(out_dir), json.loads((out_dir / "learning.json").read_text())
+    code, stdout, seconds = bench(out_dir)
+    assert code == 0
+    after = json.loads((out_dir / "learning.json").read_text())
+    assert checkpoints(out_dir) == before_ckpt and before_ckpt
+    for name in RUNS:
+        assert after["runs"][name]["wall_s"] == before["runs"][name]["wall_s"]
+        assert after["runs"][name]["finished"] == before["runs"][name]["finished"]
+    assert not [line for line in stdout.splitlines() if line.startswith("deepmimic:walk ")]
+    assert seconds < grid[3], "the rerun took as long as training"
+
+
+def test_run_without_a_record_resumes_from_its_checkpoint(grid):
+    out_dir = grid[0]
+    path = out_dir / "learning.json"
+    doc = json.loads(path.read_text())
+    lost = doc["runs"].pop("walk_rsi_s0")  # as if killed after the last checkpoint, before the record
+    path.write_text(json.dumps(doc))
+    before_ckpt = checkpoints(out_dir)
+    code, stdout, _ = bench(out_dir)
+    assert code == 0
+    run = json.loads(path.read_text())["runs"]["walk_rsi_s0"]
+    assert run["status"] == "complete" and run["resumes"] == 1 and run["samples"] == lost["samples"]
+    assert checkpoints(out_dir) == before_ckpt, "a checkpoint was rewritten: the run trained again"
+    finished = [line for line in stdout.splitlines() if line.startswith("deepmimic:walk ")]
+    assert len(finished) == 1 and finished[0].startswith("deepmimic:walk rsi seed 0:")
+
+
+@pytest.mark.parametrize("flags, flag", [(["--inits", "asi,xsi"], "--inits"), (["--samples", "0"], "--samples"),
+                                         (["--skills", "deepmimic:nope"], "--skills")])
+def test_bad_flags_exit_2_and_write_nothing(tmp_path, capsys, flags, flag):
+    out_dir = tmp_path / "out"
+    assert main(["bench", "--suite", "learning", "--out-dir", str(out_dir), *flags]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"sfv: {flag}") and len(err.splitlines()) == 1, err
+    assert not out_dir.exists()
+
+
+def test_script_calls_the_same_command(tmp_path):
+    out_dir = tmp_path / "out"
+    done = subprocess.run([sys.executable, str(REPO / "bench" / "learning.py"), "--out-dir", str(out_dir), "--inits", "bogus"],
+                          capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert done.returncode == 2 and "--inits 'bogus'" in done.stderr and not out_dir.exists()
+
+
+def test_threshold_and_plot_from_eval_rows(tmp_path):
+    """The eval/ rows path (the trainer writes them every --eval-every samples): curve, first crossing, plot."""
+    from services.bench.learning_suite import markdown_table, plot, read_curve, samples_to_threshold
+
+    rows = [{"samples": 4096 * i, "normalized_return": 0.1 * i} for i in range(1, 6)]
+    rows[1]["eval/normalized_return"], rows[1]["eval/fall_rate"] = 0.5, 0.4
+    rows.append({"samples": 4096 * 5, "eval/normalized_return": 0.85, "eval/fall_rate": 0.0})  # an eval row of its own
+    (tmp_path / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    curve = read_curve(tmp_path)
+    assert curve["eval"] == {"samples": [8192, 20480], "eval/fall_rate": [0.4, 0.0], "eval/normalized_return": [0.5, 0.85]}
+    assert len(curve["train"]["samples"]) == 5
+    assert samples_to_threshold(curve, 20480, 0.7, 0.8) == (20480, "eval")
+    no_eval = {"train": curve["train"], "eval": {"samples": []}}
+    assert samples_to_threshold(no_eval, 20480, 0.9, 0.8) == (20480, "train_smoothed")
+    assert samples_to_threshold(no_eval, 20480, 0.2, 0.8) == (None, "train_smoothed")
+    entry = {"skill": "deepmimic:run", "init": "asi", "seed": 0, "status": "complete", "samples": 20480,
+             "eval": {"normalized_return": 0.85, "fall_rate": 0.0}, "curve": curve, "samples_to_threshold": 20480}
+    doc = {"threshold": 0.8, "runs": {"run_asi_s0": entry, "run_rsi_s0": {**entry, "init": "rsi", "samples_to_threshold": None}}}
+    table = markdown_table(doc)
+    assert "| deepmimic:run | asi | 1 | 20,480 | 0.850 | 0.00 | 20,480 |" in table
+    assert "| deepmimic:run | rsi | 1 | 20,480 | 0.850 | 0.00 | not reached |" in table
+    assert plot(doc, tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
+    timed = {**entry, "samples_to_threshold": 61440, "samples_per_s": 512.0}  # 120 s at its own rate
+    assert "| 61,440 (2 min) |" in markdown_table({"threshold": 0.8, "runs": {"run_asi_s0": timed}})
+
+
+def test_all_skills_means_every_deepmimic_clip():
+    import argparse
+
+    from actors.motion.formats.io import DEEPMIMIC_CLIPS
+    from services.bench.learning_suite import add_arguments, config_from_args
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    args = parser.parse_args(["--out-dir", "unused", "--skills", "all", "--inits", "rsi"])
+    args.out, args.device, args.torch_threads, args.physics_hz = None, None, None, None
+    config = config_from_args(args)
+    assert config.skills == tuple(DEEPMIMIC_CLIPS) and len(config.skills) == 15
