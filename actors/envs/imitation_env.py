@@ -144,7 +144,6 @@ class ImitationEnv(gym.Env):
         self.root_sync = core.root_sync
         self.reference_obs = core.reference_obs
         self.reference_pose_obs = core.reference_pose_obs
-        self.tracking_termination = getattr(self.mode, "tracking_termination", None)  # the sfv mode's deviation rule
         self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
         # The boxes' geom ids (empty on the flat floor), for an obstacle-collision termination.
         self.obstacle_geom_ids: tuple[int, ...] = self.arena.obstacle_geom_ids(self.model)

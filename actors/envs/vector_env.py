@@ -92,7 +92,6 @@ class VectorImitationEnv:
         self.root_sync = core.root_sync
         self.reference_obs = core.reference_obs
         self.reference_pose_obs = core.reference_pose_obs
-        self.tracking_termination = getattr(core.mode, "tracking_termination", None)
         self._rows = core.rows
         self._fell = core.fell
         self._diverged = core.diverged
