@@ -131,8 +131,26 @@ def test_sample_between_frames_slerps(clip):
         np.testing.assert_allclose(qn.quat_angle(qn.quat_mul(qn.quat_conj(got), b)), (1 - w) * total, atol=1e-9)
 
 
-def test_velocities_integrate_to_the_next_frame_in_mujoco(clip):
-    """The finite-difference velocities, in MuJoCo's qvel conventions, carry frame i to i+1."""
+def uniform_motion(rng, frames=7, loop=False):
+    """A clip moving at constant velocities: the root translates and every rotation turns about a fixed axis."""
+    times = np.concatenate(([0.0], np.cumsum(rng.uniform(0.02, 0.06, frames - 1))))
+    def turning(shape):
+        q0 = rng.normal(size=shape + (4,))
+        q0 /= np.linalg.norm(q0, axis=-1, keepdims=True)
+        omega = rng.normal(size=shape + (3,))  # rad/s in the child frame
+        return np.stack([qn.quat_mul(q0, qn.quat_from_axis_angle(omega * t)) for t in times])
+    joint_rot = turning((NUM_JOINTS,))
+    # Revolute joints turn about their hinge axis (x in the skeleton): zero the other components.
+    hinge = ~np.asarray(JOINT_IS_SPHERICAL)
+    angle = rng.uniform(-2, 0, hinge.sum()) + rng.normal(size=hinge.sum()) * times[:, None]
+    joint_rot[:, hinge] = qn.quat_from_axis_angle(angle[..., None] * np.array([1.0, 0.0, 0.0]))
+    root_pos = np.array([0.0, 0.0, 0.9]) + np.outer(times, [0.4, -0.2, 0.1])
+    return ReferenceMotion("uniform", times, root_pos, turning(()), joint_rot, loop=loop)
+
+
+def test_velocities_integrate_to_the_next_frame_in_mujoco():
+    """For a motion at constant velocities, the frame velocities, in MuJoCo's qvel conventions, carry frame i to i+1."""
+    clip = uniform_motion(np.random.default_rng(0))
     humanoid = Humanoid()
     layout = StateLayout(humanoid)
     qpos, qvel, nxt, unused = np.zeros(humanoid.nq), np.zeros(humanoid.nv), np.zeros(humanoid.nq), np.zeros(humanoid.nv)
@@ -146,6 +164,25 @@ def test_velocities_integrate_to_the_next_frame_in_mujoco(clip):
         assert same_rotation(integrated[layout.ball_qpos], nxt[layout.ball_qpos]) < 1e-9
         assert same_rotation(integrated[3:7], nxt[3:7]) < 1e-9
         np.testing.assert_allclose(integrated[layout.hinge_qpos], nxt[layout.hinge_qpos], atol=1e-9)
+
+
+def test_frame_velocities_are_central_differences():
+    """A root moving on a parabola, unevenly sampled: a frame's velocity is the derivative there (not the next interval's)."""
+    rng = np.random.default_rng(1)
+    clip = uniform_motion(rng, frames=9)
+    accel = np.array([1.5, -0.5, -3.0])
+    clip = ReferenceMotion("parabola", clip.frame_times, clip.root_pos + 0.5 * np.outer(clip.frame_times**2, accel),
+                           clip.root_rot, clip.joint_rot)
+    inner = clip.frame_times[1:-1]
+    expected = np.array([0.4, -0.2, 0.1]) + np.outer(inner, accel)
+    np.testing.assert_allclose(clip.sample(inner).root_lin_vel, expected, atol=1e-9)
+
+
+def test_looped_clip_velocity_is_continuous_across_the_wrap():
+    clip = uniform_motion(np.random.default_rng(2), loop=True)
+    ends = clip.sample(np.array([0.0, clip.duration]))
+    np.testing.assert_allclose(ends.root_lin_vel[0], ends.root_lin_vel[1], atol=1e-9)
+
 
 
 def test_looped_clip_repeats_with_cyclic_root_offset(clip):
