@@ -172,7 +172,8 @@ def run_experts_job(clips: list[str], out: str | Path, samples: int = DEFAULT_SA
     if pending and parallel == 1 and ray_address is None:
         _run_here(pending, status, progress)  # one at a time: no Ray needed (CI, debugging)
     elif pending:
-        with ray_session(ray_address, num_cpus=parallel, log_to_driver=True):
+        # The bars come from the run directories; the tasks' own output goes to the log (--verbose forwards it).
+        with ray_session(ray_address, num_cpus=parallel, log_to_driver=None):
             _run_tasks(pending, status, samples, progress)
     summary = {"clips": clips, "samples": int(samples), "parallel": int(parallel), "status": status}
     from learner.atomic_io import atomic_write_json
