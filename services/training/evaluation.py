@@ -31,6 +31,8 @@ Figures (one dict):
   horizontal root displacement from start to end of each episode over the reference's over the
   same steps, each summed over episodes (1: it travelled as far as the clip; standing still: 0).
 - episodes; with pushes: pushes, push_impulse_ns, push_duration_s, push_episodes, push_survival_rate.
+- fall_phases: the clip phase (0 at its first frame, 1 at its last) at which each fall happened,
+  sorted: falls bunched at one phase name the part of the clip the controller has not learned.
 
 Pushes (`pushes=N`, `sfv eval --push N`; the render's push code, `actors/envs/pushes.py`):
 each push is an impulse of `push_impulse` N s (default 40 N s: a 45 kg character's speed changes
@@ -137,6 +139,7 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
 
     returns, lengths, falls = np.zeros(episodes), np.zeros(episodes), np.zeros(episodes, dtype=bool)
     divergences = 0
+    fall_phases: list[float] = []  # the clip's phase at each fall: where in the clip episodes end
     rotation_sum = end_effector_sum = 0.0
     error_steps = 0
     sim_distance = ref_distance = 0.0
@@ -168,6 +171,7 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
                 recorded += 1
                 if detector(data):
                     fell = True
+                    fall_phases.append(float(track.phase[env.row]))
                     total += 0.0 if zero_on_fall else reward
                     break
                 total += reward
@@ -209,6 +213,7 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
         "distance_ratio": sim_distance / ref_distance if travels and ref_distance > 0 else None,
         "divergences": int(divergences),
         "episodes": int(episodes),
+        "fall_phases": [round(p, 3) for p in sorted(fall_phases)],
     }
     if schedule_config is not None:
         result.update(pushes=int(pushes), push_impulse_ns=schedule_config.impulse, push_duration_s=schedule_config.duration_s,

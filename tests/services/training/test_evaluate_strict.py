@@ -103,6 +103,19 @@ def test_kneeling_counts_as_a_fall_whatever_the_training_termination(stand, earl
     assert env.config.early_termination is early_termination  # the env's own setting is given back
 
 
+def test_fall_phases_say_where_in_the_clip_each_fall_happened(stand):
+    config = EnvConfig(horizon_s=1.5, early_termination=True, **ABSOLUTE)
+    env = ImitationEnv(stand, config)
+    assert evaluate_policy(Constant(np.zeros(env.action_space.shape)), env, 4)["fall_phases"] == []
+    knelt = evaluate_policy(Constant(kneel_action(config)), env, 4)
+    phases = np.array(knelt["fall_phases"])
+    assert len(phases) == 4 and np.all(np.diff(phases) >= 0)
+    # Episode k starts at phase k / 4 and falls within a second: its fall lies that far on in the clip.
+    starts = np.arange(4) / 4
+    later = np.mod(phases[:, None] - starts[None, :], 1.0) * stand.duration
+    assert np.all(np.sort(later.min(axis=0)) < 1.0) and np.all(later.min(axis=0) > 0.0)
+
+
 def test_without_termination_the_env_alone_lets_the_kneeling_character_go_on(stand):
     """The control case for the test above: the env itself would not have ended these episodes."""
     config = EnvConfig(horizon_s=1.5, early_termination=False, **ABSOLUTE)
