@@ -142,9 +142,14 @@ def build_mjcf(config: PhysicsConfig = PhysicsConfig(), arena=None) -> str:
 
 
 class Humanoid:
-    """A compiled humanoid model and the index maps between skeleton order and MuJoCo order."""
+    """A compiled humanoid model and the index maps between skeleton order and MuJoCo order;
+    `character` is the description it was built from (what features, actions and mirror maps
+    read)."""
 
     def __init__(self, config: PhysicsConfig = PhysicsConfig(), arena=None):
+        from actors.character.humanoid3d import HUMANOID3D  # humanoid3d builds this class: imported when built
+
+        self.character = HUMANOID3D
         self.config = config
         self.arena = FlatFloor() if arena is None else arena
         self.model = mujoco.MjModel.from_xml_string(build_mjcf(config, self.arena))

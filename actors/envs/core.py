@@ -31,7 +31,7 @@ class ImitationCore:
         self.track = track
         self.sim = MujocoSimulator([env.model for env in envs], [env.data for env in envs], config.substeps)
         self.features = FeatureExtractor(humanoid, num_envs)
-        self.actions = ActionMapper(config.action_parameterisation, config.residual_action_scale)
+        self.actions = ActionMapper(config.action_parameterisation, config.residual_action_scale, humanoid.character)
         self.mode = mode_class(config.mode)(config, track, humanoid, num_envs)
         self.root_sync = RootSync(track, num_envs, config.sync_root_per_cycle and self.mode.tracks_root)
         self.reference_obs = ReferenceObservation(track, num_envs, config.reference_obs_steps if self.mode.tracks_root else ())
@@ -47,7 +47,7 @@ class ImitationCore:
         self._base = np.zeros((num_envs, nu))  # each env's reference targets for residual actions
         self.rows = np.zeros(num_envs, dtype=np.int64)  # each env's current reference row
         self._next_rows = np.zeros(num_envs, dtype=np.int64)
-        self._reference = RewardFeatures.zeros(first.model.nv, num_envs)  # each env's reference row, per step
+        self._reference = RewardFeatures.zeros(first.model.nv, num_envs, self.features.reward_shape)  # each env's reference row, per step
         self.fell = np.zeros(num_envs, dtype=bool)
         self.diverged = np.zeros(num_envs, dtype=bool)
         self.terms = np.zeros((num_envs, len(self.mode.term_names)))

@@ -33,7 +33,7 @@ import numpy as np
 from actors.arenas import arena_for
 from actors.envs.core import ImitationCore
 from actors.envs.falls import FallDetector
-from actors.character.features import POSE_OBS_WIDTH, observation_dim, update_kinematics
+from actors.character.features import observation_dim, pose_obs_width, update_kinematics
 from actors.character.humanoid import Humanoid, PhysicsConfig, control_substeps
 from actors.character.humanoid3d import HUMANOID3D
 from actors.motion.reference_motion import ReferenceMotion
@@ -118,10 +118,10 @@ class ImitationEnv(gym.Env):
         self.substeps = config.substeps
         self.track = track or ReferenceTrack(motion, self.humanoid, 1.0 / config.control_hz, config.horizon_s)
         self.layout = StateLayout(self.humanoid, config.state_space)
-        feature_dim = observation_dim(len(config.reference_obs_steps))
+        feature_dim = observation_dim(len(config.reference_obs_steps), self.humanoid.character)
         scene_dim = 0 if self.scene is None else self.scene.vector_dim
         # The observation: features (actors/character/features.py), the reference's poses ahead, the scene vector.
-        self.scene_obs_start = feature_dim + len(config.reference_pose_obs_steps) * POSE_OBS_WIDTH
+        self.scene_obs_start = feature_dim + len(config.reference_pose_obs_steps) * pose_obs_width(self.humanoid.character)
         self.obs_dim = self.scene_obs_start + scene_dim
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self.obs_dim,), np.float32)
         self.state_dim = self.layout.state_dim

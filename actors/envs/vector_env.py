@@ -18,10 +18,15 @@ from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.envs.initial_states import BufferedStarts
 from actors.motion.reference_motion import ReferenceMotion
 from actors.motion.reference_track import ReferenceTrack
-from actors.character.skeleton import NUM_LINKS
 
 
-OTHER_END = 1 << NUM_LINKS  # a fall with no fall link on the ground: tracking deviation, divergence, movingcam's rules
+def other_end(character) -> int:
+    """The fall-cause bit of an episode that ended with no fall link on the ground (tracking
+    deviation, divergence, movingcam's rules): the bit after the character's links."""
+    return 1 << character.num_links
+
+
+OTHER_END = other_end(HUMANOID3D)
 
 
 @dataclass
@@ -33,7 +38,7 @@ class EpisodeLog:
     discounted_returns: list = field(default_factory=list)
     lengths: list = field(default_factory=list)
     fell: list = field(default_factory=list)
-    fall_causes: list = field(default_factory=list)  # bitmask: bit i link i on the ground, bit NUM_LINKS another end (0: no fall)
+    fall_causes: list = field(default_factory=list)  # bitmask: bit i link i on the ground, `other_end` another end (0: no fall)
     components: list = field(default_factory=list)
     initial_states: list = field(default_factory=list)
     state_dim: int = 0
@@ -169,6 +174,6 @@ class VectorImitationEnv:
         log.discounted_returns.append(self._disc[i])
         log.lengths.append(self._len[i])
         log.fell.append(fell)
-        log.fall_causes.append((env.fall_detector.touching(env.data) or OTHER_END) if fell else 0)
+        log.fall_causes.append((env.fall_detector.touching(env.data) or other_end(env.humanoid.character)) if fell else 0)
         log.components.append(self._component[i])
         log.initial_states.append(self._init_state[i].copy())

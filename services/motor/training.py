@@ -74,8 +74,9 @@ class Distiller:
 
         if run.torch_threads:
             torch.set_num_threads(run.torch_threads)
-        self.out, self.config, self.run = Path(out), config, run
         data, manifest = load_dataset(dataset, held_out)
+        config = config.with_sizes_of(data["proprio"].shape[1], data["future"].shape[1], data["mean_targets"].shape[1])
+        self.out, self.config, self.run = Path(out), config, run
         self.clips = [c for c in manifest["clips"] if c not in held_out]
         self.out.mkdir(parents=True, exist_ok=True)
         _write_module_config(self.out, config, Path(dataset), manifest, held_out)

@@ -147,7 +147,7 @@ def _upgrade(d: dict) -> dict:
         d["env"] = env
     if not env or "residual_action_scale" in env:
         return d
-    from actors.character.skeleton import LINK_NAMES
+    from actors.character.humanoid3d import HUMANOID3D  # the only character of those runs
 
     d.setdefault("curriculum_start_s", 0.0)
     d.setdefault("asi_initial_std_scale", 1.0)
@@ -159,7 +159,7 @@ def _upgrade(d: dict) -> dict:
     env.setdefault("state_space", "qpos")
     env.setdefault("reference_obs_steps", ())
     # The old rule: only the root, chest and neck touching the ground was a fall.
-    env.setdefault("ground_contact_links", tuple(n for n in LINK_NAMES if n not in ("root", "chest", "neck")))
+    env.setdefault("ground_contact_links", tuple(n for n in HUMANOID3D.link_names if n not in ("root", "chest", "neck")))
     reward = dict(env.get("reward", {}))
     if "form" not in reward:
         reward.update(form="sfv_paper", root_weight=0.0)

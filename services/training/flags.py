@@ -75,14 +75,15 @@ def _int_list(positive_only: bool, allow_none: bool):
 
 
 def _link_names(text: str) -> tuple[str, ...]:
-    from actors.character.skeleton import LINK_NAMES
+    from actors.character.humanoid3d import HUMANOID3D
 
+    links = HUMANOID3D.link_names  # the character sfv trains
     if text.strip().lower() == "none":
         return ()
     names = tuple(part.strip() for part in text.split(",") if part.strip())
-    unknown = [n for n in names if n not in LINK_NAMES]
+    unknown = [n for n in names if n not in links]
     if not names or unknown:
-        raise argparse.ArgumentTypeError(f"expected link names separated by commas (of {', '.join(LINK_NAMES)}), got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected link names separated by commas (of {', '.join(links)}), got {text!r}")
     return names
 
 

@@ -20,7 +20,7 @@ class SfvMode:
     captures = ()
 
     def __init__(self, config, track, humanoid, batch: int):
-        self.reward = ImitationReward(config.reward, humanoid.joint_dof_adr)
+        self.reward = ImitationReward(config.reward, humanoid)
         self.max_reward = config.reward.max_reward
         self.tracking_termination = TrackingTermination(config.tracking_termination_m, batch)
         self.terminated = np.zeros(batch, dtype=bool)
