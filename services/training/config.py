@@ -6,7 +6,6 @@ from dataclasses import dataclass, field
 
 from actors.character.humanoid import PhysicsConfig
 from actors.envs.imitation_env import EnvConfig
-from actors.envs.modes.sfv.reward import RewardConfig
 from learner.config import PPOConfig
 from learner.errors import ConfigError
 
@@ -122,17 +121,32 @@ class TrainConfig:
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":
-        d = _upgrade(dict(d))
+        d = _sfv_mode_settings(_upgrade(dict(d)))
         if d.pop("serial", False) and "runner" not in d:  # written before the runners had names
             d["runner"] = "in_process"
         env = dict(d.pop("env", {}))
         physics = PhysicsConfig(**env.pop("physics", {}))
-        reward = RewardConfig(**env.pop("reward", {}))
         ppo = PPOConfig.from_dict(d.pop("ppo", {}))
         try:
-            return cls(**d, env=EnvConfig(physics=physics, reward=reward, **env), ppo=ppo)
+            return cls(**d, env=EnvConfig(physics=physics, **env), ppo=ppo)
         except TypeError as exc:  # a config from another version: name the field
             raise ConfigError(f"run config: {exc}") from None
+
+
+def _sfv_mode_settings(d: dict) -> dict:
+    """A run config written before the sfv mode owned its settings keeps its reward and
+    tracking termination at `env.reward` / `env.tracking_termination_m`: move them under
+    `env.sfv`, where the mode reads them."""
+    env = dict(d.get("env", {}))
+    if "reward" not in env and "tracking_termination_m" not in env:
+        return d
+    sfv = dict(env.get("sfv", {}))
+    for name in ("reward", "tracking_termination_m"):
+        if name in env:
+            sfv[name] = env.pop(name)
+    env["sfv"] = sfv
+    d["env"] = env
+    return d
 
 
 def _upgrade(d: dict) -> dict:
