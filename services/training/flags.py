@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from learner.errors import SfvError
+from learner.yaml_io import read_yaml
 
 _MISSING = object()
 
@@ -291,15 +292,8 @@ def given_settings(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, 
 # ------------------------------------------------------------------------ config files
 def read_config_file(path: str | Path) -> dict[str, Any]:
     """{config path: value} from a YAML (or JSON) file in `--print-config`'s nested layout."""
-    import yaml
-
     path = Path(path)
-    try:
-        document = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise SfvError(f"{path}: cannot read config file ({exc.strerror or exc})") from None
-    except yaml.YAMLError as exc:
-        raise SfvError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    document = read_yaml(path, "config file")
     if not isinstance(document, dict):
         raise SfvError(f"{path}: a config file holds a mapping of settings, got {type(document).__name__}")
     by_path = {leaf.path: leaf for leaf in leaves()}
