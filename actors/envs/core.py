@@ -22,6 +22,37 @@ from actors.envs.root_sync import RootSync
 from actors.envs.simulator import MujocoSimulator
 
 
+class CoreParts:
+    """The parts of its `core` an env shows as its own (`ImitationEnv`, `VectorImitationEnv`):
+    one definition, so both envs name the same objects the same way."""
+
+    core: "ImitationCore"
+
+    @property
+    def features(self) -> FeatureExtractor:
+        return self.core.features
+
+    @property
+    def actions(self) -> ActionMapper:
+        return self.core.actions
+
+    @property
+    def mode(self):
+        return self.core.mode
+
+    @property
+    def root_sync(self) -> RootSync:
+        return self.core.root_sync
+
+    @property
+    def reference_obs(self) -> ReferenceObservation:
+        return self.core.reference_obs
+
+    @property
+    def reference_pose_obs(self) -> ReferencePoseObservation:
+        return self.core.reference_pose_obs
+
+
 class ImitationCore:
     def __init__(self, envs, humanoid, track, config, feature_dim: int, obs_dim: int, scene_dim: int, scene_reward, scene_limbs):
         num_envs = len(envs)

@@ -31,7 +31,7 @@ import mujoco
 import numpy as np
 
 from actors.arenas import arena_for
-from actors.envs.core import ImitationCore
+from actors.envs.core import CoreParts, ImitationCore
 from actors.envs.falls import FallDetector
 from actors.character.features import observation_dim, pose_obs_width, update_kinematics
 from actors.character.humanoid import Humanoid, PhysicsConfig, control_substeps
@@ -103,7 +103,7 @@ class EnvConfig:
         return control_substeps(self.physics, self.control_hz)
 
 
-class ImitationEnv(gym.Env):
+class ImitationEnv(CoreParts, gym.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
 
     def __init__(self, motion: ReferenceMotion, config: EnvConfig = EnvConfig(), humanoid: Humanoid | None = None, track: ReferenceTrack | None = None):
@@ -138,12 +138,6 @@ class ImitationEnv(gym.Env):
         # The env core over a batch of one: this env's physics, features, mode and observation.
         self.core = ImitationCore([self], self.humanoid, self.track, config, feature_dim, self.obs_dim, scene_dim, self.scene_reward, self.scene_limbs)
         core = self.core
-        self.features = core.features
-        self.actions = core.actions
-        self.mode = core.mode
-        self.root_sync = core.root_sync
-        self.reference_obs = core.reference_obs
-        self.reference_pose_obs = core.reference_pose_obs
         self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
         # The boxes' geom ids (empty on the flat floor), for an obstacle-collision termination.
         self.obstacle_geom_ids: tuple[int, ...] = self.arena.obstacle_geom_ids(self.model)

@@ -13,7 +13,7 @@ import numpy as np
 
 from actors.arenas import arena_for
 from actors.character.humanoid3d import HUMANOID3D
-from actors.envs.core import ImitationCore
+from actors.envs.core import CoreParts, ImitationCore
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.envs.initial_states import BufferedStarts
 from actors.motion.reference_motion import ReferenceMotion
@@ -54,7 +54,7 @@ class EpisodeLog:
         return out
 
 
-class VectorImitationEnv:
+class VectorImitationEnv(CoreParts):
     def __init__(self, motion: ReferenceMotion, config: EnvConfig, num_envs: int, starts: BufferedStarts, seed: int = 0, gamma: float = 0.95):
         humanoid = HUMANOID3D.build(config.physics, arena_for(config.scene, motion, config.scene_check_start_pose))
         track = ReferenceTrack(motion, humanoid, 1.0 / config.control_hz, config.horizon_s)
@@ -91,12 +91,6 @@ class VectorImitationEnv:
         self.core = core = ImitationCore(self.envs, humanoid, track, config, first.obs_features_dim, obs_dim, first.scene_vector.size,
                                          first.scene_reward, first.scene_limbs)
         core.mode.set_obstacles(first.obstacle_geom_ids)
-        self.features = core.features
-        self.actions = core.actions
-        self.mode = core.mode
-        self.root_sync = core.root_sync
-        self.reference_obs = core.reference_obs
-        self.reference_pose_obs = core.reference_pose_obs
         self._rows = core.rows
         self._fell = core.fell
         self._diverged = core.diverged
