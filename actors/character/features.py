@@ -13,8 +13,7 @@ import numpy as np
 
 from dataclasses import dataclass
 
-from actors.character.humanoid import Humanoid
-from actors.character.humanoid3d import HUMANOID3D
+from actors.character.humanoid3d import HUMANOID3D, Humanoid
 from actors.character.state import StateLayout
 
 REFERENCE_OBS_WIDTH = 3 + 4  # per observed reference step: root position and rotation in the heading frame

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from actors.character import quaternion as qn
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 
 STATE_SPACES = ("rotvec", "qpos")
 

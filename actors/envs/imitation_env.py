@@ -34,8 +34,8 @@ from actors.arenas import arena_for
 from actors.envs.core import CoreParts, ImitationCore
 from actors.envs.falls import FallDetector
 from actors.character.features import observation_dim, pose_obs_width, update_kinematics
-from actors.character.humanoid import Humanoid, PhysicsConfig, control_substeps
-from actors.character.humanoid3d import HUMANOID3D
+from actors.character.humanoid import PhysicsConfig, control_substeps
+from actors.character.humanoid3d import HUMANOID3D, Humanoid
 from actors.motion.reference_motion import ReferenceMotion
 from actors.envs.modes import MODE_NAMES, mode_class
 from actors.envs.modes.movingcam.tracking import MovingcamConfig

@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 
 from actors.character.features import FeatureExtractor, RewardFeatures, pose_obs_width, update_kinematics
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.motion.reference_motion import ReferenceMotion
 from actors.character.state import StateLayout
 

@@ -70,7 +70,7 @@ def run_scene_fit(motion_path: str, scene_path: str | None, out: Path, base: Tra
         summary["initial_scene_scores"] = stages.initial.scores(reference_contacts)  # Table 2's "fixed scene"
     simulated = stages.simulated
     summary["scores"] = simulated.scores(reference_contacts)
-    from actors.character.humanoid import Humanoid
+    from actors.character.humanoid3d import Humanoid
     from actors.character.state import StateLayout
 
     motion = simulated.motion(f"{clip.name}-simulated", StateLayout(Humanoid()))

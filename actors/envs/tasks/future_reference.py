@@ -21,8 +21,7 @@ import mujoco
 import numpy as np
 
 from actors.character.features import REFERENCE_OBS_WIDTH, FeatureExtractor, update_kinematics
-from actors.character.humanoid import Humanoid
-from actors.character.humanoid3d import HUMANOID3D
+from actors.character.humanoid3d import HUMANOID3D, Humanoid
 from actors.envs.reference_obs import ReferenceObservation
 
 FUTURE_STEPS = 5  # 004 Fig. 1: k = 5

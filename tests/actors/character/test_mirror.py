@@ -8,7 +8,7 @@ import pytest
 from actors.character import quaternion as qn
 from actors.character.actions import ActionMapper
 from actors.character.features import FeatureExtractor, update_kinematics
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.character.kinematics import forward_kinematics
 from actors.character.skeleton import LINK_MIRROR

@@ -16,7 +16,7 @@ import pytest
 
 from actors.character import quaternion as qn
 from actors.character.features import RewardFeatures, update_kinematics
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.envs.modes.sfv.config import SfvConfig
 from actors.envs.modes.sfv.reward import ImitationReward, RewardConfig
