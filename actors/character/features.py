@@ -8,10 +8,10 @@ MjData) goes through the same code, so perfect tracking gives exactly equal feat
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import mujoco
 import numpy as np
-
-from dataclasses import dataclass
 
 from actors.character.humanoid3d import HUMANOID3D, Humanoid
 from actors.character.state import StateLayout
@@ -57,7 +57,7 @@ class RewardShape:
 
     def width(self, nv: int) -> int:
         """Columns of a row for a character with `nv` velocity coordinates."""
-        return self.ang_vel_start + (nv - 3) + 3 * self.end_effectors + 4 * 3
+        return self.ang_vel_start + (nv - 3) + 3 * self.end_effectors + 4 * 3  # then root pos, root vel, com vel, com
 
 
 # The humanoid3d's sizes, for the modules and tests that speak of it.
