@@ -301,7 +301,7 @@ def read_config_file(path: str | Path) -> dict[str, Any]:
 
     def walk(node: dict, prefix: str) -> None:
         for key, value in node.items():
-            name = prefix + str(key)
+            name = _current_path(prefix + str(key))
             if isinstance(value, dict) and name not in by_path:
                 walk(value, name + ".")
             elif name not in by_path:
@@ -311,6 +311,17 @@ def read_config_file(path: str | Path) -> dict[str, Any]:
 
     walk(document, "")
     return flat
+
+
+# Settings that moved (a config file written before keeps working): old path prefix -> new.
+MOVED_SETTINGS = {"env.reward": "env.sfv.reward", "env.tracking_termination_m": "env.sfv.tracking_termination_m"}
+
+
+def _current_path(name: str) -> str:
+    for old, new in MOVED_SETTINGS.items():
+        if name == old or name.startswith(old + "."):
+            return new + name[len(old):]
+    return name
 
 
 def _checked(source: Path, leaf: Leaf, value):
