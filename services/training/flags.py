@@ -1,21 +1,22 @@
 """`sfv train`'s settings from one place: the config dataclasses' fields.
 
 Every leaf field of `TrainConfig` (its own fields, `env`, `env.physics`, each env mode's
-`env.sfv` / `env.movingcam`, `ppo`)
-becomes a flag named by its path (`--samples`, `--env.horizon-s`, `--env.physics.physics-hz`,
-`--ppo.update-epochs`) whose type, choices and help text come from the field, so a default is
-declared once, in the dataclass. The short flags users know (`--epochs`, `--physics-hz`,
-`--hidden`, ...) are aliases of those paths (`ALIASES`). A YAML file (`--config FILE.yaml`,
-the nested layout `--print-config` writes) sets any field too. Presets are named bundles of
-settings applied under whatever is given (`PRESETS`): `--reward deepmimic|sfv_paper` sets the
-sfv mode's reward, `--preset movingcam` the dynamic-camera paper's setup (the env mode,
-residual targets, adaptive tuple sampling). The env mode itself is `--env.mode`.
+`env.sfv` / `env.movingcam`, `ppo`) becomes a flag named by its path (`--samples`,
+`--env.horizon-s`, `--env.physics.physics-hz`, `--ppo.update-epochs`) whose type, choices and
+help text come from the field, so a default is declared once, in the dataclass. The short
+flags users know (`--epochs`, `--physics-hz`, `--hidden`, ...) are aliases of those paths
+(`ALIASES`). A YAML file (`--config FILE.yaml`, the nested layout `--print-config` writes) sets
+any field too. The env mode is `--env.mode`. Presets are named bundles of settings applied
+under whatever is given (`REWARD_PRESETS`, `SETUP_PRESETS`): `--reward deepmimic|sfv_paper`
+sets the sfv mode's reward, `--preset movingcam` the dynamic-camera paper's setup (the env
+mode, residual targets, adaptive tuple sampling).
 
-Precedence: the dataclass defaults, then the presets, then the config file, then the flags given. With
-`--resume`, the run's saved config replaces the defaults; settings given explicitly win where
-changing them mid-run is safe (`SAFE_ON_RESUME`: budget, learning rates, epochs, workers,
-addresses, ...) and are refused with a one-line error where it is not (network sizes, physics,
-reward, action and observation spaces), instead of being dropped silently.
+Precedence: the dataclass defaults, then the presets, then the config file, then the flags
+given. With `--resume`, the run's saved config replaces the defaults; settings given
+explicitly win where changing them mid-run is safe (`SAFE_ON_RESUME`: budget, learning rates,
+epochs, workers, addresses, ...) and are refused with a one-line error where it is not
+(network sizes, physics, reward, action and observation spaces), instead of being dropped
+silently.
 """
 from __future__ import annotations
 
