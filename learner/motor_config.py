@@ -15,6 +15,9 @@ from typing import Any
 from learner.errors import ConfigError
 
 
+SIZE_FIELDS = ("proprio_dim", "future_dim", "action_dim")
+
+
 @dataclass
 class MotorModuleConfig:
     latent_dim: int = field(default=60, metadata={"help": "size of the latent motor intention z (Merel et al. 2019: 60)"})
@@ -32,9 +35,11 @@ class MotorModuleConfig:
     max_grad_norm: float = field(default=1.0, metadata={"help": "clip the gradient's global L2 norm to this"})
     validation_fraction: float = field(default=0.05, metadata={"help": "fraction of the episodes kept out of training for the validation loss"})
     seed: int = field(default=0, metadata={"help": "seed of the network init, window sampling and latent noise"})
-    proprio_dim: int = field(default=196, metadata={"help": "decoder input s_t (actors/envs/tasks/proprioception.py); fixed by the dataset"})
-    future_dim: int = field(default=565, metadata={"help": "encoder input s_t+1..t+k (actors/envs/tasks/future_reference.py); fixed by the dataset"})
-    action_dim: int = field(default=28, metadata={"help": "decoder output: absolute PD targets (rad); fixed by the dataset"})
+    # The sizes below are the dataset's (its character's proprioception and actuators): `with_sizes_of`
+    # sets them from its arrays; None until then.
+    proprio_dim: int | None = field(default=None, metadata={"help": "decoder input s_t (actors/envs/tasks/proprioception.py); from the dataset"})
+    future_dim: int | None = field(default=None, metadata={"help": "encoder input s_t+1..t+k (actors/envs/tasks/future_reference.py); from the dataset"})
+    action_dim: int | None = field(default=None, metadata={"help": "decoder output: absolute PD targets (rad), one per actuator; from the dataset"})
 
     def __post_init__(self) -> None:
         self.encoder_hidden = tuple(int(h) for h in self.encoder_hidden)
@@ -50,13 +55,20 @@ class MotorModuleConfig:
             problems.append(f"beta must be >= 0, got {self.beta}")
         if not 0.0 <= self.validation_fraction < 1.0:
             problems.append(f"validation_fraction must be in [0, 1), got {self.validation_fraction}")
-        for name in ("latent_dim", "window", "batch_windows", "proprio_dim", "future_dim", "action_dim"):
+        for name in ("latent_dim", "window", "batch_windows"):
             if getattr(self, name) < 1:
+                problems.append(f"{name} must be >= 1")
+        for name in SIZE_FIELDS:
+            if getattr(self, name) is not None and getattr(self, name) < 1:
                 problems.append(f"{name} must be >= 1")
         if any(h < 1 for h in self.encoder_hidden + self.decoder_hidden):
             problems.append("hidden sizes must be >= 1")
         if problems:
             raise ConfigError("MotorModuleConfig: " + "; ".join(problems))
+
+    def with_sizes_of(self, proprio: int, future: int, actions: int) -> "MotorModuleConfig":
+        """This config with the dataset's input and output sizes."""
+        return dataclasses.replace(self, proprio_dim=proprio, future_dim=future, action_dim=actions)
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

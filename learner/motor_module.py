@@ -25,7 +25,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from learner.motor_config import MotorModuleConfig
+from learner.errors import ConfigError
+from learner.motor_config import SIZE_FIELDS, MotorModuleConfig
 
 HALF_LOG_TWO_PI = 0.5 * math.log(2.0 * math.pi)
 OUTPUT_GAIN = 0.01  # small last layers: the decoder starts at the mean targets, the encoder at N(0, 1)
@@ -67,6 +68,9 @@ def prior_sample(z_prev: torch.Tensor, alpha: float, sigma: float, noise: torch.
 class MotorModule(nn.Module):
     def __init__(self, config: MotorModuleConfig, generator: torch.Generator | None = None):
         super().__init__()
+        unsized = [name for name in SIZE_FIELDS if getattr(config, name) is None]
+        if unsized:
+            raise ConfigError(f"MotorModule: {', '.join(unsized)} not set (a dataset's sizes: MotorModuleConfig.with_sizes_of)")
         self.config = c = config
         self.encoder = elu_mlp(c.future_dim + c.latent_dim, c.encoder_hidden, 2 * c.latent_dim, generator)
         self.decoder = elu_mlp(c.proprio_dim + c.latent_dim, c.decoder_hidden, c.action_dim, generator)

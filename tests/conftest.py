@@ -26,7 +26,7 @@ def walk_clip():
 
 @pytest.fixture(scope="session")
 def shared_humanoid():
-    from actors.character.humanoid import Humanoid
+    from actors.character.humanoid3d import Humanoid
 
     return Humanoid()
 

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from learner.errors import SfvError
+from learner.yaml_io import read_yaml
 
 DEFAULT_HALF_DOMAIN = 0.3  # m: 002's [-30 cm, 30 cm] per parameter
 FITTED = ("along", "height")  # the scene vector's entries per box, in this order
@@ -220,16 +221,8 @@ def parse_scene(source, document) -> Scene:
 
 def load_scene(path, motion=None) -> Scene:
     """Read and check a scene file; with `motion`, also that no box can cover its start pose."""
-    import yaml
-
     path = Path(path)
-    try:
-        document = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise SceneError(f"{path}: cannot read scene file ({exc.strerror or exc})") from None
-    except yaml.YAMLError as exc:
-        raise SceneError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    scene = parse_scene(path, document)
+    scene = parse_scene(path, read_yaml(path, "scene file", SceneError))
     if motion is not None:
         scene.check_start_pose(path, motion)
     return scene

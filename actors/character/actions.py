@@ -1,8 +1,9 @@
-"""From a policy action to the PD targets of MuJoCo's 28 position actuators.
+"""From a policy action to the PD targets of a character's position actuators (28 for humanoid3d).
 
 Actions are normalised: the policy's output lives in [-1, 1] per component (the env clips).
-Layout: the 8 spherical joints first, then the 4 revolute joints, each group in skeleton
-order (`skeleton.JOINT_NAMES` filtered), the same order as the actuators in `humanoid.py`.
+Layout: the character's spherical joints first, then its revolute joints, each group in
+joint order (`Character.joint_names` filtered), the same order as its actuators (humanoid3d:
+8 ball joints and 4 hinges, `humanoid.py`).
 - "exp_map" (28-D, the default): per spherical joint the rotation vector directly, per
   revolute an angle. DeepMimic's current code and MimicKit use it.
 - "axis_angle" (SFV's 36-D): per spherical joint (angle, axis x, y, z), the angle scaled by
@@ -20,34 +21,33 @@ from __future__ import annotations
 
 import numpy as np
 
-from actors.character.skeleton import JOINT_LINKS, LINKS, NUM_ACTUATED_DOF, joint_limits_zup
+from actors.character.humanoid3d import HUMANOID3D
 
 ACTION_PARAMETERISATIONS = ("axis_angle", "exp_map")
-SPHERICAL_LINKS = [i for i in JOINT_LINKS if LINKS[i].joint == "spherical"]
-REVOLUTE_LINKS = [i for i in JOINT_LINKS if LINKS[i].joint == "revolute"]
-NUM_SPHERICAL, NUM_REVOLUTE = len(SPHERICAL_LINKS), len(REVOLUTE_LINKS)
-SPH_CTRL = 3 * NUM_SPHERICAL  # 24: controls of spherical joints come first
 
 
 class ActionMapper:
-    def __init__(self, parameterisation: str = "exp_map", residual_scale: float | None = None):
+    def __init__(self, parameterisation: str = "exp_map", residual_scale: float | None = None, character=HUMANOID3D):
         if parameterisation not in ACTION_PARAMETERISATIONS:
             raise ValueError(f"action parameterisation must be one of {ACTION_PARAMETERISATIONS}, got {parameterisation!r}")
         if residual_scale is not None and (parameterisation != "exp_map" or not residual_scale > 0):
             raise ValueError(f"residual targets need exp_map actions and a positive scale, got {parameterisation!r}, {residual_scale!r}")
         self.parameterisation = parameterisation
         self.residual_scale = residual_scale
-        limits = np.concatenate([joint_limits_zup(LINKS[i]) for i in SPHERICAL_LINKS + REVOLUTE_LINKS])  # (28, 2)
+        self.num_spherical = int(character.joint_is_spherical.sum())
+        self.num_revolute = len(character.joint_names) - self.num_spherical
+        self.sph_ctrl = 3 * self.num_spherical  # controls of spherical joints come first
+        limits = character.actuator_limits  # (nu, 2)
         self.lower, self.upper = limits[:, 0].copy(), limits[:, 1].copy()
         self.scale = np.maximum(np.abs(self.lower), np.abs(self.upper))
         self.width = 4 if parameterisation == "axis_angle" else 3
-        self.sph_width = self.width * NUM_SPHERICAL
-        self.action_dim = self.sph_width + NUM_REVOLUTE
-        assert SPH_CTRL + NUM_REVOLUTE == NUM_ACTUATED_DOF
+        self.sph_width = self.width * self.num_spherical
+        self.action_dim = self.sph_width + self.num_revolute
+        assert self.sph_ctrl + self.num_revolute == character.nu
         if residual_scale is not None:
             self.scale = np.full_like(self.scale, residual_scale)
-        self._sph_scale, self._rev_scale = self.scale[:SPH_CTRL].copy(), self.scale[SPH_CTRL:].copy()
-        self._targets = np.zeros(NUM_ACTUATED_DOF)
+        self._sph_scale, self._rev_scale = self.scale[:self.sph_ctrl].copy(), self.scale[self.sph_ctrl:].copy()
+        self._targets = np.zeros(character.nu)
         self._scratch: tuple = (0,)  # (rows, clipped actions, their views, angles)
         self._out_views: tuple = (None,)  # (out, its spherical, revolute and exp-map views)
 
@@ -56,8 +56,8 @@ class ActionMapper:
         return self.residual_scale is not None
 
     def targets(self, action: np.ndarray, out: np.ndarray | None = None, base: np.ndarray | None = None) -> np.ndarray:
-        """PD targets (28,) for one action; writes into `out` (e.g. MjData.ctrl) if given;
-        `base` (28,) is the reference target residual actions add to."""
+        """PD targets (nu,) for one action; writes into `out` (e.g. MjData.ctrl) if given;
+        `base` (nu,) is the reference target residual actions add to."""
         targets = self._targets if out is None else out
         self.targets_batch(np.asarray(action).reshape(1, -1), targets.reshape(1, -1), None if base is None else base.reshape(1, -1))
         return targets
@@ -65,19 +65,20 @@ class ActionMapper:
     def _views(self, b: int, out: np.ndarray) -> tuple:
         """Scratch for b rows and views into `out`, built once (slicing and reshaping cost
         as much as the arithmetic on these few numbers)."""
+        balls, ctrl = self.num_spherical, self.sph_ctrl
         if self._scratch[0] != b:
             clipped = np.zeros((b, self.action_dim))
-            block = clipped[:, : self.sph_width].reshape(b, NUM_SPHERICAL, self.width)
-            angle = np.zeros((b, NUM_SPHERICAL))
-            self._scratch = (b, clipped, block[..., 0], block[..., 1:], clipped[:, : SPH_CTRL], clipped[:, self.sph_width:],
+            block = clipped[:, : self.sph_width].reshape(b, balls, self.width)
+            angle = np.zeros((b, balls))
+            self._scratch = (b, clipped, block[..., 0], block[..., 1:], clipped[:, :ctrl], clipped[:, self.sph_width:],
                              angle, angle[..., None])
         if self._out_views[0] is not out:
-            self._out_views = (out, out[:, :SPH_CTRL].reshape(b, NUM_SPHERICAL, 3), out[:, :SPH_CTRL], out[:, SPH_CTRL:])
+            self._out_views = (out, out[:, :ctrl].reshape(b, balls, 3), out[:, :ctrl], out[:, ctrl:])
         return self._scratch + self._out_views[1:]
 
     def targets_batch(self, actions: np.ndarray, out: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
-        """PD targets (B, 28) for a batch of actions (B, action_dim), into `out`; residual
-        actions add to `base` (B, 28), each env's reference targets.
+        """PD targets (B, nu) for a batch of actions (B, action_dim), into `out`; residual
+        actions add to `base` (B, nu), each env's reference targets.
 
         Plain ufunc calls with `out=` into fixed buffers: this runs every control step."""
         _, a, first, axis, exp_part, revolute, angle, angle_col, sph, out_sph, out_rev = self._views(actions.shape[0], out)
@@ -107,14 +108,14 @@ class ActionMapper:
         action = np.zeros(self.action_dim)
         if self.residual_scale is not None and base is not None:
             targets = np.asarray(targets, dtype=np.float64) - base
-        rv = np.asarray(targets[:SPH_CTRL], dtype=np.float64).reshape(NUM_SPHERICAL, 3)
+        rv = np.asarray(targets[:self.sph_ctrl], dtype=np.float64).reshape(self.num_spherical, 3)
         if self.parameterisation == "axis_angle":
             angle = np.linalg.norm(rv, axis=1)
             axis = np.where(angle[:, None] > 1e-9, rv / np.maximum(angle, 1e-9)[:, None], np.array([1.0, 0, 0]))
-            block = action[: self.sph_width].reshape(NUM_SPHERICAL, 4)
+            block = action[: self.sph_width].reshape(self.num_spherical, 4)
             block[:, 0] = angle / np.pi
             block[:, 1:] = axis
         else:
-            action[:SPH_CTRL] = rv.ravel() / self.scale[:SPH_CTRL]
-        action[self.sph_width:] = targets[SPH_CTRL:] / self.scale[SPH_CTRL:]
+            action[:self.sph_ctrl] = rv.ravel() / self.scale[:self.sph_ctrl]
+        action[self.sph_width:] = targets[self.sph_ctrl:] / self.scale[self.sph_ctrl:]
         return action

@@ -6,7 +6,9 @@ per-joint weights, and the sizes of its own coordinates: qpos, qvel, actuators) 
 MuJoCo model in an arena (`build(physics, arena)`: the compiled character with its bodies'
 ids and each joint's qpos / DoF addresses, `joint_qpos_adr`, `joint_dof_adr`). An arena's
 props come after the character's own coordinates, so `qpos[:nq]`, `qvel[:nv]` and `ctrl[:nu]`
-are the character's whatever the arena holds. `humanoid3d` (DeepMimic's humanoid,
+are the character's whatever the arena holds. The modules that turn a body into numbers
+(features, actions, mirror maps, state layout, the reward's weights, the fall rule) read it
+from the character they are given (the built model's `character`), never from a skeleton. `humanoid3d` (DeepMimic's humanoid,
 `actors/character/humanoid3d.py`) is the first; a robot is another `Character`.
 """
 from __future__ import annotations
@@ -19,16 +21,20 @@ import numpy as np
 class Character(Protocol):
     name: str
     link_names: tuple[str, ...]
+    num_links: int  # MuJoCo bodies 1..num_links are the links (an arena's bodies come after them)
     joint_names: tuple[str, ...]  # the actuated joints, in motion-file order
     joint_is_spherical: np.ndarray  # (joints,) bool: 3-DoF ball or 1-DoF hinge
     nq: int  # the character's own qpos size (a free root first)
     nv: int  # its qvel size
     nu: int  # its actuators: the PD targets an action sets
+    hinge_axis: np.ndarray  # (3,) the axis every 1-DoF joint turns about, in its parent's frame
+    actuator_limits: np.ndarray  # (nu, 2) target limits: ball joints' 3 axes first, then the hinges
     kp: np.ndarray  # (joints,) PD gains
     kd: np.ndarray
     torque_limits: np.ndarray  # (joints,) N m
     end_effector_links: np.ndarray  # link indices (the reward's end effectors)
     feet: tuple[str, ...]  # links always allowed on the ground (every clip's fall rule allows them)
+    torso_links: np.ndarray  # link indices of the torso and head (a task's fall rule)
     link_mirror: np.ndarray  # link -> its left/right partner
     joint_mirror: np.ndarray  # joint -> its partner
     reward_joint_weights: dict[str, float]  # the imitation reward's per-joint weights, by link name

@@ -8,28 +8,64 @@ MjData) goes through the same code, so perfect tracking gives exactly equal feat
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import mujoco
 import numpy as np
 
-from actors.character.humanoid import Humanoid
-from actors.character.skeleton import END_EFFECTOR_LINKS, NUM_LINKS
+from actors.character.humanoid3d import HUMANOID3D, Humanoid
 from actors.character.state import StateLayout
 
-OBS_DIM = 1 + NUM_LINKS * (3 + 4 + 3 + 3) + 1  # 197: height, link pos/rot/lin vel/ang vel, phase
 REFERENCE_OBS_WIDTH = 3 + 4  # per observed reference step: root position and rotation in the heading frame
-POSE_OBS_WIDTH = 1 + 3 * NUM_LINKS  # per observed step of the reference's pose: root height and link positions (actors/envs/reference_obs.py)
 
 
-def observation_dim(reference_steps: int = 0) -> int:
+def obs_dim(character=HUMANOID3D) -> int:
+    """Height, each link's position, rotation, linear and angular velocity, phase."""
+    return 1 + character.num_links * (3 + 4 + 3 + 3) + 1
+
+
+def pose_obs_width(character=HUMANOID3D) -> int:
+    """Per observed step of the reference's pose: root height and link positions (actors/envs/reference_obs.py)."""
+    return 1 + 3 * character.num_links
+
+
+def observation_dim(reference_steps: int = 0, character=HUMANOID3D) -> int:
     """Observation width with `reference_steps` future reference roots (inserted before the phase)."""
-    return OBS_DIM + REFERENCE_OBS_WIDTH * reference_steps
-NUM_REWARD_QUATS = 9  # root (world) + 8 ball joints (local); the 4 hinges compare angles
-_POS = slice(1, 1 + 3 * NUM_LINKS)
-_ROT = slice(_POS.stop, _POS.stop + 4 * NUM_LINKS)
-_LIN = slice(_ROT.stop, _ROT.stop + 3 * NUM_LINKS)
-_ANG = slice(_LIN.stop, _LIN.stop + 3 * NUM_LINKS)
-HINGE_START = 4 * NUM_REWARD_QUATS  # RewardFeatures.values columns: quats, hinges, ang vel, end effectors, com
-_ANG_VEL_START = HINGE_START + 4
+    return obs_dim(character) + REFERENCE_OBS_WIDTH * reference_steps
+
+
+@dataclass(frozen=True)
+class RewardShape:
+    """How many of each compared thing a character's `RewardFeatures` row holds: quaternions
+    (the root's in the world, then each ball joint's), hinge angles, end effectors."""
+    quats: int
+    hinges: int
+    end_effectors: int
+
+    @classmethod
+    def of(cls, character) -> "RewardShape":
+        balls = int(character.joint_is_spherical.sum())
+        return cls(1 + balls, len(character.joint_names) - balls, len(character.end_effector_links))
+
+    @property
+    def hinge_start(self) -> int:  # columns: quats, hinges, ang vel, end effectors, root, com
+        return 4 * self.quats
+
+    @property
+    def ang_vel_start(self) -> int:
+        return self.hinge_start + self.hinges
+
+    def width(self, nv: int) -> int:
+        """Columns of a row for a character with `nv` velocity coordinates."""
+        return self.ang_vel_start + (nv - 3) + 3 * self.end_effectors + 4 * 3  # then root pos, root vel, com vel, com
+
+
+# The humanoid3d's sizes, for the modules and tests that speak of it.
+OBS_DIM = obs_dim(HUMANOID3D)  # 197
+POSE_OBS_WIDTH = pose_obs_width(HUMANOID3D)  # 46
+HUMANOID3D_REWARD_SHAPE = RewardShape.of(HUMANOID3D)
+NUM_REWARD_QUATS = HUMANOID3D_REWARD_SHAPE.quats  # 9: root (world) + 8 ball joints (local); the 4 hinges compare angles
+HINGE_START = HUMANOID3D_REWARD_SHAPE.hinge_start
 # (w, x, y, z) @ P = (z, y, -x, -w): with c I + s P, the product conj(q_h) * q for q_h = (c, 0, 0, s).
 # w x r as a linear map of the outer product w r^T (flattened row-major): two numpy calls
 # instead of six products and a difference.
@@ -61,45 +97,49 @@ class RewardFeatures:
     in the heading frame), the root's world position and linear velocity, and the world
     centre of mass's velocity and position."""
 
-    def __init__(self, values: np.ndarray):
+    def __init__(self, values: np.ndarray, shape: RewardShape = HUMANOID3D_REWARD_SHAPE):
         self.values = values  # (B, D)
-        n_ang = values.shape[1] - _ANG_VEL_START - 4 * 3 - 4 * 3
-        ee = _ANG_VEL_START + n_ang
+        self.shape = shape
+        h, e = shape.hinges, shape.end_effectors
+        n_ang = values.shape[1] - shape.width(3)
+        ang, ee = shape.ang_vel_start, shape.ang_vel_start + n_ang
+        root = ee + 3 * e
         # Named views, made once: the reward reads them every control step.
-        self.quats = values[:, :HINGE_START].reshape(-1, NUM_REWARD_QUATS, 4)  # (B, 9, 4)
-        self.hinges = values[:, HINGE_START:_ANG_VEL_START]  # (B, 4)
-        self.ang_vel = values[:, _ANG_VEL_START:ee]  # (B, nv - 3)
-        self.end_effectors = values[:, ee:ee + 12].reshape(-1, 4, 3)  # (B, 4, 3)
-        self.root_pos = values[:, ee + 12:ee + 15]  # (B, 3) world
-        self.root_xy = values[:, ee + 12:ee + 14]
-        self.root_lin_vel = values[:, ee + 15:ee + 18]  # (B, 3) world
-        self.com_vel = values[:, ee + 18:ee + 21]  # (B, 3) world
-        self.com = values[:, ee + 21:ee + 24]  # (B, 3) world
-        self.com_xy = values[:, ee + 21:ee + 23]
-        self.tail = values[:, HINGE_START:]  # everything compared by plain squared differences
+        self.quats = values[:, :shape.hinge_start].reshape(-1, shape.quats, 4)  # (B, 9, 4)
+        self.hinges = values[:, shape.hinge_start:ang]  # (B, 4)
+        self.ang_vel = values[:, ang:ee]  # (B, nv - 3)
+        self.end_effectors = values[:, ee:root].reshape(-1, e, 3)  # (B, 4, 3)
+        self.root_pos = values[:, root:root + 3]  # (B, 3) world
+        self.root_xy = values[:, root:root + 2]
+        self.root_lin_vel = values[:, root + 3:root + 6]  # (B, 3) world
+        self.com_vel = values[:, root + 6:root + 9]  # (B, 3) world
+        self.com = values[:, root + 9:root + 12]  # (B, 3) world
+        self.com_xy = values[:, root + 9:root + 11]
+        self.tail = values[:, shape.hinge_start:]  # everything compared by plain squared differences
         # Column ranges of `tail` (for the reward's weight matrices).
-        self.tail_columns = {"hinges": (0, 4), "ang_vel": (4, 4 + n_ang), "end_effectors": (4 + n_ang, 16 + n_ang),
-                             "root_pos": (16 + n_ang, 19 + n_ang), "root_lin_vel": (19 + n_ang, 22 + n_ang),
-                             "com_vel": (22 + n_ang, 25 + n_ang), "com": (25 + n_ang, 28 + n_ang)}
+        t = root - shape.hinge_start
+        self.tail_columns = {"hinges": (0, h), "ang_vel": (h, h + n_ang), "end_effectors": (h + n_ang, t),
+                             "root_pos": (t, t + 3), "root_lin_vel": (t + 3, t + 6),
+                             "com_vel": (t + 6, t + 9), "com": (t + 9, t + 12)}
 
     @classmethod
-    def zeros(cls, nv: int, rows: int = 1) -> "RewardFeatures":
-        return cls(np.zeros((rows, _ANG_VEL_START + (nv - 3) + 4 * 3 + 4 * 3)))
+    def zeros(cls, nv: int, rows: int = 1, shape: RewardShape = HUMANOID3D_REWARD_SHAPE) -> "RewardFeatures":
+        return cls(np.zeros((rows, shape.width(nv))), shape)
 
     def take(self, rows: np.ndarray, out: "RewardFeatures | None" = None) -> "RewardFeatures":
         """Rows gathered by index (a copy), e.g. each env's current reference row; into
         `out`'s buffer when given (the per-step path allocates nothing)."""
         if out is None:
-            return RewardFeatures(self.values[rows])
+            return RewardFeatures(self.values[rows], self.shape)
         np.take(self.values, rows, axis=0, out=out.values)
         return out
 
     def slice(self, rows: slice) -> "RewardFeatures":
-        return RewardFeatures(self.values[rows])
+        return RewardFeatures(self.values[rows], self.shape)
 
 
 class FeatureExtractor:
-    """Observation (197-D) and reward features for `batch` envs, into fixed buffers.
+    """Observation (197-D for humanoid3d) and reward features for `batch` envs, into fixed buffers.
 
     Per control step: `capture(i, data)` for each env, then `heading()` once, then
     `reward_features(yaw)` and `observations(phases, out, yaw)` over all rows.
@@ -109,14 +149,17 @@ class FeatureExtractor:
         self.model = humanoid.model
         self.batch = b = batch
         self.layout = StateLayout(humanoid)
+        character = humanoid.character
+        self.num_links = n = character.num_links
+        self.obs_dim = obs_dim(character)
+        self.reward_shape = RewardShape.of(character)
         self.root_body = int(humanoid.body_ids[0])
-        # MuJoCo bodies 1..15 are the links (see Humanoid); positions in that slice:
-        self._ee = humanoid.body_ids[END_EFFECTOR_LINKS] - 1
+        # MuJoCo bodies 1..n are the links (see Humanoid); positions in that slice:
+        self._ee = humanoid.body_ids[character.end_effector_links] - 1
         assert self.root_body == 1
         # qpos columns of the 9 reward quaternions then the 4 hinge angles, gathered in one go.
         quat_qpos = np.concatenate((np.arange(3, 7)[None], self.layout.ball_qpos))  # (9, 4)
         self._rot_qpos = np.concatenate((quat_qpos.ravel(), self.layout.hinge_qpos))
-        n = NUM_LINKS
         nq, nv = self.model.nq, self.model.nv
         # Captured MjData fields, one row per env.
         self.pos = np.zeros((b, n, 3))
@@ -137,10 +180,10 @@ class FeatureExtractor:
         self._rel = np.zeros((b, n, 3))
         self._lin = np.zeros((b, n, 3))
         self._outer = np.zeros((b, n, 3, 3))
-        self._ee_rel = np.zeros((b, 4, 3))
+        self._ee_rel = np.zeros((b, len(self._ee), 3))
         self._sign = np.zeros((b, n, 1))
         self._offset = np.zeros((b, 1, 3))
-        self.sim = RewardFeatures.zeros(nv, b)
+        self.sim = RewardFeatures.zeros(nv, b, self.reward_shape)
         self._make_views(b, n)
 
     def _make_views(self, b: int, n: int) -> None:
@@ -149,7 +192,7 @@ class FeatureExtractor:
         yaw, half, ang = self._yaw, self._half, self.cvel[:, :, :3]
         self._heading_views = (self._theta, self.root_xmat[:, 0], self.root_xmat[:, 3], yaw[:, 0, 0], yaw[:, 1, 0],
                                yaw[:, 1, 1], yaw[:, 0, 1], half[:, 0, 0, 0], half[:, 1, 0, 0])
-        self._reward_views = (self.sim.values[:, :_ANG_VEL_START], self.qvel[:, 3:], self.pos[:, :1], self.pos[:, 0],
+        self._reward_views = (self.sim.values[:, :self.reward_shape.ang_vel_start], self.qvel[:, 3:], self.pos[:, :1], self.pos[:, 0],
                               self.pos[:, :1, 2], self.sim.end_effectors[..., 2], self.qvel[:, :3])
         self._obs_views = (self.pos[:, 0, 2], self.pos[:, :1], self.com[:, None, :], self._offset, self._rel, ang,
                            ang[..., :, None], self._rel[..., None, :], self._outer, self._outer.reshape(b, n, 9),
@@ -157,12 +200,24 @@ class FeatureExtractor:
                            half[:, 0, 0], half[:, 1], self._sign)
         self._out_views: tuple = (None,)  # the observation buffer last written and views into it
 
+    def _observation_views(self, out: np.ndarray) -> tuple:
+        """Views into an observation buffer: height, link positions, rotations, linear and
+        angular velocities (the links' blocks one after the other), phase, reference roots."""
+        b, n, end = out.shape[0], self.num_links, self.obs_dim - 1
+        pos, rot, lin, ang = (out[:, 1 + start * n:1 + (start + width) * n] for start, width in ((0, 3), (3, 4), (7, 3), (10, 3)))
+        rot = rot.reshape(b, n, 4)
+        k = (out.shape[1] - self.obs_dim) // REFERENCE_OBS_WIDTH
+        ref_pos = out[:, end:end + 3 * k].reshape(b, k, 3)
+        ref_rot = out[:, end + 3 * k:end + 7 * k].reshape(b, k, 4)
+        return (out, out[:, 0], pos.reshape(b, n, 3), rot, rot[..., :1], lin.reshape(b, n, 3), ang.reshape(b, n, 3),
+                out[:, -1], ref_pos, ref_rot, ref_rot[..., :1], np.zeros((b, k, 3)), np.zeros((b, k, 1)))
+
     def capture(self, i: int, data: mujoco.MjData) -> None:
         """Copy env i's state (after `update_kinematics`) into row i."""
         bound, copies = self._copies[i]
         if bound is not data:
             # MjData's arrays are fixed views of its buffers: build the (row, field) pairs once.
-            links = slice(1, NUM_LINKS + 1)  # the walker's bodies; an arena's props come after them
+            links = slice(1, self.num_links + 1)  # the walker's bodies; an arena's props come after them
             copies = ((self.pos[i], data.xpos[links]), (self.quat[i], data.xquat[links]), (self.cvel[i], data.cvel[links]),
                       (self.com[i], data.subtree_com[1]), (self.com_vel[i], data.subtree_linvel[1]),
                       (self.root_xmat[i], data.xmat[1]),
@@ -198,14 +253,7 @@ class FeatureExtractor:
         if yaw is None:
             yaw = self.heading()
         if self._out_views[0] is not out:
-            b, n = out.shape[0], NUM_LINKS
-            rot = out[:, _ROT].reshape(b, n, 4)
-            k = (out.shape[1] - OBS_DIM) // REFERENCE_OBS_WIDTH
-            ref_pos = out[:, OBS_DIM - 1:OBS_DIM - 1 + 3 * k].reshape(b, k, 3)
-            ref_rot = out[:, OBS_DIM - 1 + 3 * k:OBS_DIM - 1 + 7 * k].reshape(b, k, 4)
-            self._out_views = (out, out[:, 0], out[:, _POS].reshape(b, n, 3), rot, rot[..., :1],
-                               out[:, _LIN].reshape(b, n, 3), out[:, _ANG].reshape(b, n, 3), out[:, -1],
-                               ref_pos, ref_rot, ref_rot[..., :1], np.zeros((b, k, 3)), np.zeros((b, k, 1)))
+            self._out_views = self._observation_views(out)
         (_, out_height, out_pos, out_rot, out_rot_w, out_lin, out_ang, out_phase,
          out_ref_pos, out_ref_rot, out_ref_w, ref_rel, ref_sign) = self._out_views
         (height, root, com, offset, rel, ang, ang_col, lever_row, outer, outer_flat, lin_at_com, lin,

@@ -1,4 +1,4 @@
-"""The humanoid as a MuJoCo model, generated from `skeleton.py`.
+"""The humanoid's MJCF, generated from `skeleton.py` (compiled by `humanoid3d.Humanoid`).
 
 PD control runs inside MuJoCo: every joint axis gets a built-in `position` actuator with the
 character's kp, kd (`kv`, integrated implicitly by `implicitfast`) and torque limit. A
@@ -12,12 +12,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import mujoco
 import numpy as np
 
 from actors.arenas.flat import FlatFloor
 from actors.character.skeleton import (
-    FALL_CONTACT_LINKS,
     HINGE_AXIS,
     JOINT_LINKS,
     LINKS,
@@ -139,32 +137,3 @@ def build_mjcf(config: PhysicsConfig = PhysicsConfig(), arena=None) -> str:
   </actuator>
 </mujoco>
 """
-
-
-class Humanoid:
-    """A compiled humanoid model and the index maps between skeleton order and MuJoCo order."""
-
-    def __init__(self, config: PhysicsConfig = PhysicsConfig(), arena=None):
-        self.config = config
-        self.arena = FlatFloor() if arena is None else arena
-        self.model = mujoco.MjModel.from_xml_string(build_mjcf(config, self.arena))
-        m = self.model
-        self.body_ids = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, link.name) for link in LINKS])
-        joint_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, LINKS[i].name) for i in JOINT_LINKS]
-        self.joint_qpos_adr = m.jnt_qposadr[joint_ids].copy()
-        self.joint_dof_adr = m.jnt_dofadr[joint_ids].copy()
-        # Torso and head geoms (the facts file's flag); episodes use the per-clip rule of actors/envs/falls.py.
-        self.fall_geom_ids = np.array([m.body_geomadr[self.body_ids[i]] for i in FALL_CONTACT_LINKS])
-        # MuJoCo numbers bodies depth-first, so the 15 links are bodies 1..15 (a contiguous
-        # slice of xpos / xquat / cvel) in an order other than the skeleton's.
-        assert sorted(self.body_ids) == list(range(1, len(LINKS) + 1))
-        self.floor_geom_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, self.arena.geom_name)
-        self.num_actuators = m.nu
-
-    @property
-    def nq(self) -> int:
-        return self.model.nq
-
-    @property
-    def nv(self) -> int:
-        return self.model.nv

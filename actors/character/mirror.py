@@ -1,7 +1,8 @@
-"""Left/right mirroring of the humanoid: states, actions, observations and whole clips.
+"""Left/right mirroring of a character: states, actions, observations and whole clips.
 
 NPMP (004 §3.2-3.3) distils one expert per clip; mirrored clips double the data for free
-when the body is symmetric, which this one is: in the Z-up frame of `skeleton.py` the
+when the body is symmetric. Every map here reads the character's mirror maps (`link_mirror`,
+`joint_mirror`) and joint kinds; humanoid3d is symmetric: in the Z-up frame of `skeleton.py` the
 character faces +x with its right side at -y, every left link is its right partner's
 reflection in the sagittal (x-z) plane (offsets, geoms, masses, gains), and the joint limits
 reflect into each other (checked in `tests/actors/character/test_mirror.py`). The reflection S = diag(1, -1, 1)
@@ -22,26 +23,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from actors.character.actions import NUM_REVOLUTE, REVOLUTE_LINKS, SPHERICAL_LINKS
-from actors.character.features import OBS_DIM, POSE_OBS_WIDTH, REFERENCE_OBS_WIDTH
-from actors.character.skeleton import JOINT_LINKS, LINK_NAMES, LINKS, NUM_LINKS
+from actors.character.features import REFERENCE_OBS_WIDTH, obs_dim, pose_obs_width
+from actors.character.humanoid3d import HUMANOID3D
 
 MIRROR_SUFFIX = "_mirror"
 POLAR = np.array([1.0, -1.0, 1.0])  # positions, linear velocities
 AXIAL = np.array([-1.0, 1.0, -1.0])  # rotation vectors, angular velocities
 QUAT = np.array([1.0, -1.0, 1.0, -1.0])  # (w, x, y, z) of S R S
-
-
-def _partner_name(name: str) -> str:
-    if name.startswith("right_"):
-        return "left_" + name[len("right_"):]
-    if name.startswith("left_"):
-        return "right_" + name[len("left_"):]
-    return name
-
-
-LINK_MIRROR = np.array([LINK_NAMES.index(_partner_name(n)) for n in LINK_NAMES])  # skeleton link -> its partner
-JOINT_MIRROR = np.array([JOINT_LINKS.index(LINK_MIRROR[i]) for i in JOINT_LINKS])  # JOINT_NAMES index -> partner's
 
 
 def mirrored_name(name: str) -> str:
@@ -80,44 +68,44 @@ class SignedPermutation:
 
 
 def state_mirror(humanoid) -> tuple[SignedPermutation, SignedPermutation]:
-    """(qpos map, qvel map) of MuJoCo's state vectors for this humanoid's joint addresses."""
+    """(qpos map, qvel map) of MuJoCo's state vectors for this built character's joint addresses."""
     qadr, dadr = humanoid.joint_qpos_adr, humanoid.joint_dof_adr
+    character = humanoid.character
     qpos_blocks = [(0, 0, POLAR), (3, 3, QUAT)]
     qvel_blocks = [(0, 0, POLAR), (3, 3, AXIAL)]
-    for j, link in enumerate(JOINT_LINKS):
-        p = JOINT_MIRROR[j]
-        ball = LINKS[link].joint == "spherical"
+    for j, ball in enumerate(character.joint_is_spherical):
+        p = character.joint_mirror[j]
         qpos_blocks.append((qadr[j], qadr[p], QUAT if ball else np.ones(1)))
         qvel_blocks.append((dadr[j], dadr[p], AXIAL if ball else np.ones(1)))
     return SignedPermutation.from_blocks(humanoid.nq, qpos_blocks), SignedPermutation.from_blocks(humanoid.nv, qvel_blocks)
 
 
-def action_mirror(parameterisation: str = "exp_map") -> SignedPermutation:
-    """Map of the policy's action vector (`actions.py` layout: the 8 spherical joints, then
-    the 4 revolute). exp_map: a rotation vector per ball joint (axial); axis_angle: (angle,
-    axis), the angle kept and the axis axial. With 28 entries this is also the map of the
-    PD targets (MuJoCo ctrl / actuator lengths). The per-axis action scales and joint limits
-    of partners mirror into each other, so scaling and clipping commute with it."""
+def action_mirror(parameterisation: str = "exp_map", character=HUMANOID3D) -> SignedPermutation:
+    """Map of the policy's action vector (`actions.py` layout: the spherical joints, then
+    the revolute). exp_map: a rotation vector per ball joint (axial); axis_angle: (angle,
+    axis), the angle kept and the axis axial. With exp_map (nu entries) this is also the map
+    of the PD targets (MuJoCo ctrl / actuator lengths). The per-axis action scales and joint
+    limits of partners mirror into each other, so scaling and clipping commute with it."""
     width, signs = (4, np.concatenate(([1.0], AXIAL))) if parameterisation == "axis_angle" else (3, AXIAL)
-    blocks = []
-    for s, link in enumerate(SPHERICAL_LINKS):
-        p = SPHERICAL_LINKS.index(LINK_MIRROR[link])
-        blocks.append((width * s, width * p, signs))
-    base = width * len(SPHERICAL_LINKS)
-    for r, link in enumerate(REVOLUTE_LINKS):
-        blocks.append((base + r, base + REVOLUTE_LINKS.index(LINK_MIRROR[link]), np.ones(1)))
-    return SignedPermutation.from_blocks(base + NUM_REVOLUTE, blocks)
+    balls = np.flatnonzero(character.joint_is_spherical).tolist()
+    hinges = np.flatnonzero(~character.joint_is_spherical).tolist()
+    partner = character.joint_mirror
+    blocks = [(width * s, width * balls.index(partner[j]), signs) for s, j in enumerate(balls)]
+    base = width * len(balls)
+    blocks += [(base + r, base + hinges.index(partner[j]), np.ones(1)) for r, j in enumerate(hinges)]
+    return SignedPermutation.from_blocks(base + len(hinges), blocks)
 
 
 def observation_mirror(humanoid, reference_steps: int, pose_steps: int = 0) -> SignedPermutation:
     """Map of `FeatureExtractor.observations` (height, link positions, rotations, linear
     and angular velocities in the heading frame, K reference roots, phase), followed by
     `pose_steps` reference poses (`actors/envs/reference_obs.py`: height, link positions). Links
-    there are in MuJoCo body order (bodies 1..15), not skeleton order."""
+    there are in MuJoCo body order (bodies 1..n), not skeleton order."""
+    character = humanoid.character
     body_row = humanoid.body_ids - 1  # skeleton link -> its row in the observation's link blocks
-    row_partner = np.empty(NUM_LINKS, dtype=np.int64)
-    row_partner[body_row] = body_row[LINK_MIRROR]
-    n, k = NUM_LINKS, int(reference_steps)
+    n, k = character.num_links, int(reference_steps)
+    row_partner = np.empty(n, dtype=np.int64)
+    row_partner[body_row] = body_row[character.link_mirror]
     pos, rot = 1, 1 + 3 * n
     lin, ang = rot + 4 * n, rot + 4 * n + 3 * n
     blocks = []
@@ -125,18 +113,18 @@ def observation_mirror(humanoid, reference_steps: int, pose_steps: int = 0) -> S
         dest = row_partner[row]
         blocks += [(pos + 3 * row, pos + 3 * dest, POLAR), (rot + 4 * row, rot + 4 * dest, QUAT),
                    (lin + 3 * row, lin + 3 * dest, POLAR), (ang + 3 * row, ang + 3 * dest, AXIAL)]
-    ref_pos = OBS_DIM - 1
+    ref_pos = obs_dim(character) - 1
     ref_rot = ref_pos + 3 * k
     for step in range(k):
         blocks += [(ref_pos + 3 * step, ref_pos + 3 * step, POLAR), (ref_rot + 4 * step, ref_rot + 4 * step, QUAT)]
-    size = OBS_DIM + REFERENCE_OBS_WIDTH * k
+    size, pose_width = obs_dim(character) + REFERENCE_OBS_WIDTH * k, pose_obs_width(character)
     for step in range(int(pose_steps)):  # each pose: its height stays, link positions swap sides
-        start = size + POSE_OBS_WIDTH * step
+        start = size + pose_width * step
         blocks += [(start + 1 + 3 * row, start + 1 + 3 * row_partner[row], POLAR) for row in range(n)]
-    return SignedPermutation.from_blocks(size + POSE_OBS_WIDTH * int(pose_steps), blocks)
+    return SignedPermutation.from_blocks(size + pose_width * int(pose_steps), blocks)
 
 
-def mirror_motion(motion):
+def mirror_motion(motion, character=HUMANOID3D):
     """The clip (a `ReferenceMotion`) reflected in the world's x-z plane, left and right swapped, named
     `<name>_mirror` (or back to `<name>`). Timing and looping are the original's; extras
     (keypoints, camera tracks of a video reconstruction) are dropped, since they describe
@@ -146,6 +134,6 @@ def mirror_motion(motion):
         frame_times=motion.frame_times.copy(),
         root_pos=motion.root_pos * POLAR,
         root_rot=motion.root_rot * QUAT,
-        joint_rot=motion.joint_rot[:, JOINT_MIRROR] * QUAT,
+        joint_rot=motion.joint_rot[:, character.joint_mirror] * QUAT,
         loop=motion.loop,
     )

@@ -88,6 +88,20 @@ TOTAL_MASS = float(sum(link.mass for link in LINKS))
 # Degrees of freedom of the action and of MuJoCo's actuators.
 NUM_ACTUATED_DOF = int(3 * JOINT_IS_SPHERICAL.sum() + (~JOINT_IS_SPHERICAL).sum())  # 28
 
+
+
+def _partner_name(name: str) -> str:
+    if name.startswith("right_"):
+        return "left_" + name[len("right_"):]
+    if name.startswith("left_"):
+        return "right_" + name[len("left_"):]
+    return name
+
+
+# Left/right partners (the body is symmetric in the sagittal plane: actors/character/mirror.py).
+LINK_MIRROR = np.array([LINK_NAMES.index(_partner_name(n)) for n in LINK_NAMES])  # link -> its partner
+JOINT_MIRROR = np.array([JOINT_LINKS.index(LINK_MIRROR[i]) for i in JOINT_LINKS])  # JOINT_NAMES index -> partner's
+
 # DeepMimic's humanoid3d `DiffWeight` per joint (the root's is 1, the welded wrists' 0): the
 # imitation reward's joint weights (`actors/envs/modes/sfv/reward.py`).
 DEEPMIMIC_JOINT_WEIGHTS = {"root": 1.0, "chest": 0.5, "neck": 0.3, "right_hip": 0.5, "right_knee": 0.3, "right_ankle": 0.2,
@@ -105,6 +119,14 @@ def joint_limits_zup(link: Link) -> np.ndarray:
         return np.array(link.limits, dtype=np.float64)  # same angle about HINGE_AXIS
     (xl, xh), (yl, yh), (zl, zh) = link.limits
     return np.array([(xl, xh), (-zh, -zl), (yl, yh)], dtype=np.float64)
+
+
+def actuator_limits() -> np.ndarray:
+    """(28, 2) per-actuator target limits (Z-up axes) in MuJoCo's actuator order: the ball
+    joints' three axes first, then the hinges, each group in skeleton order."""
+    spherical = [LINKS[i] for i in JOINT_LINKS if LINKS[i].joint == "spherical"]
+    revolute = [LINKS[i] for i in JOINT_LINKS if LINKS[i].joint == "revolute"]
+    return np.concatenate([joint_limits_zup(link) for link in spherical + revolute])
 
 
 def revolute_angle(quat: np.ndarray) -> np.ndarray:

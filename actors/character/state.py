@@ -20,8 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from actors.character import quaternion as qn
-from actors.character.humanoid import Humanoid
-from actors.character.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, NUM_JOINTS, revolute_angle
+from actors.character.humanoid3d import Humanoid
 
 STATE_SPACES = ("rotvec", "qpos")
 
@@ -35,7 +34,9 @@ class StateLayout:
         self.space = space
         self.nq, self.nv = humanoid.nq, humanoid.nv
         qadr, dadr = humanoid.joint_qpos_adr, humanoid.joint_dof_adr
-        sph, rev = JOINT_IS_SPHERICAL, ~JOINT_IS_SPHERICAL
+        sph, rev = humanoid.character.joint_is_spherical, ~humanoid.character.joint_is_spherical
+        self.hinge_axis = humanoid.character.hinge_axis
+        self.num_joints = len(sph)
         self.ball_qpos = qadr[sph][:, None] + np.arange(4)  # (8, 4)
         self.ball_dof = dadr[sph][:, None] + np.arange(3)  # (8, 3)
         self.hinge_qpos = qadr[rev]  # (4,)
@@ -57,18 +58,19 @@ class StateLayout:
         qpos[0:3] = pose.root_pos
         qpos[3:7] = pose.root_rot
         qpos[self.ball_qpos] = pose.joint_rot[self.spherical]
-        qpos[self.hinge_qpos] = revolute_angle(pose.joint_rot[self.revolute])
+        hinges = pose.joint_rot[self.revolute]
+        qpos[self.hinge_qpos] = 2.0 * np.arctan2(hinges[..., 1:] @ self.hinge_axis, hinges[..., 0])  # signed angle about the axis
         qvel[0:3] = pose.root_lin_vel
         qvel[3:6] = pose.root_ang_vel
         qvel[self.ball_dof] = pose.joint_ang_vel[self.spherical]
-        qvel[self.hinge_dof] = pose.joint_ang_vel[self.revolute] @ HINGE_AXIS
+        qvel[self.hinge_dof] = pose.joint_ang_vel[self.revolute] @ self.hinge_axis
 
     def joint_quats_from_qpos(self, qpos: np.ndarray, out: np.ndarray) -> np.ndarray:
-        """(12, 4) local joint quaternions in skeleton order from a qpos vector."""
+        """(joints, 4) local joint quaternions in skeleton order from a qpos vector."""
         out[self.spherical] = qpos[self.ball_qpos]
         half = 0.5 * qpos[self.hinge_qpos]
         out[self.revolute, 0] = np.cos(half)
-        out[self.revolute, 1:] = np.sin(half)[:, None] * HINGE_AXIS
+        out[self.revolute, 1:] = np.sin(half)[:, None] * self.hinge_axis
         return out
 
     def state_vector(self, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
@@ -92,5 +94,3 @@ class StateLayout:
             q = qpos[2:][s]
             qpos[2:][s] = q / max(np.linalg.norm(q), 1e-9)
 
-
-assert NUM_JOINTS == 12

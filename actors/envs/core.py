@@ -22,6 +22,37 @@ from actors.envs.root_sync import RootSync
 from actors.envs.simulator import MujocoSimulator
 
 
+class CoreParts:
+    """The parts of its `core` an env shows as its own (`ImitationEnv`, `VectorImitationEnv`):
+    one definition, so both envs name the same objects the same way."""
+
+    core: "ImitationCore"
+
+    @property
+    def features(self) -> FeatureExtractor:
+        return self.core.features
+
+    @property
+    def actions(self) -> ActionMapper:
+        return self.core.actions
+
+    @property
+    def mode(self):
+        return self.core.mode
+
+    @property
+    def root_sync(self) -> RootSync:
+        return self.core.root_sync
+
+    @property
+    def reference_obs(self) -> ReferenceObservation:
+        return self.core.reference_obs
+
+    @property
+    def reference_pose_obs(self) -> ReferencePoseObservation:
+        return self.core.reference_pose_obs
+
+
 class ImitationCore:
     def __init__(self, envs, humanoid, track, config, feature_dim: int, obs_dim: int, scene_dim: int, scene_reward, scene_limbs):
         num_envs = len(envs)
@@ -31,7 +62,7 @@ class ImitationCore:
         self.track = track
         self.sim = MujocoSimulator([env.model for env in envs], [env.data for env in envs], config.substeps)
         self.features = FeatureExtractor(humanoid, num_envs)
-        self.actions = ActionMapper(config.action_parameterisation, config.residual_action_scale)
+        self.actions = ActionMapper(config.action_parameterisation, config.residual_action_scale, humanoid.character)
         self.mode = mode_class(config.mode)(config, track, humanoid, num_envs)
         self.root_sync = RootSync(track, num_envs, config.sync_root_per_cycle and self.mode.tracks_root)
         self.reference_obs = ReferenceObservation(track, num_envs, config.reference_obs_steps if self.mode.tracks_root else ())
@@ -47,7 +78,7 @@ class ImitationCore:
         self._base = np.zeros((num_envs, nu))  # each env's reference targets for residual actions
         self.rows = np.zeros(num_envs, dtype=np.int64)  # each env's current reference row
         self._next_rows = np.zeros(num_envs, dtype=np.int64)
-        self._reference = RewardFeatures.zeros(first.model.nv, num_envs)  # each env's reference row, per step
+        self._reference = RewardFeatures.zeros(first.model.nv, num_envs, self.features.reward_shape)  # each env's reference row, per step
         self.fell = np.zeros(num_envs, dtype=bool)
         self.diverged = np.zeros(num_envs, dtype=bool)
         self.terms = np.zeros((num_envs, len(self.mode.term_names)))

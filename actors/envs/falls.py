@@ -18,14 +18,11 @@ import mujoco
 import numpy as np
 
 from actors.character.humanoid3d import HUMANOID3D
-from actors.character.skeleton import LINK_NAMES, LINKS
 
-# Links that may touch the ground beyond the feet, per DeepMimic clip (from its train args).
-_ALWAYS_ALLOWED = HUMANOID3D.feet  # the character's feet: every clip allows them
-_EXTRA_ALLOWED: dict[str, tuple[str, ...]] = {
-    "cartwheel": ("right_wrist", "left_wrist"),
-    "crawl": tuple(n for n in LINK_NAMES if n not in ("root", "chest", "neck")),
-}
+# Links that may touch the ground beyond the character's feet (every clip allows those), per
+# DeepMimic clip (from its train args); the crawl's are every link but the torso and head.
+_EXTRA_ALLOWED: dict[str, tuple[str, ...]] = {"cartwheel": ("right_wrist", "left_wrist")}
+_ALL_BUT_TORSO_CLIPS = ("crawl",)
 # Clips DeepMimic trains with no fall rule (the skill is on the ground).
 NO_FALL_CLIPS = ("roll", "getup_facedown", "getup_faceup")
 # Pelvis height (m) below which the character counts as down in evaluation. Standing, the
@@ -49,28 +46,30 @@ def clip_key(motion_name: str) -> str:
     return name.removeprefix("humanoid3d_").removesuffix("_mirror")
 
 
-def allowed_contact_links(motion_name: str, override: tuple[str, ...] | None = None) -> tuple[str, ...]:
-    """Names of the links that may touch the ground without a fall, for this clip.
+def allowed_contact_links(motion_name: str, override: tuple[str, ...] | None = None, character=HUMANOID3D) -> tuple[str, ...]:
+    """Names of the character's links that may touch the ground without a fall, for this clip.
 
     `override` (EnvConfig.ground_contact_links) replaces the clip's table entry; the feet
     are always allowed. A clip with no fall rule allows every link."""
-    key = clip_key(motion_name)
+    key, names = clip_key(motion_name), character.link_names
     if override is not None:
-        unknown = [n for n in override if n not in LINK_NAMES]
+        unknown = [n for n in override if n not in names]
         if unknown:
-            raise ValueError(f"ground contact links {unknown} are not links of the humanoid ({', '.join(LINK_NAMES)})")
+            raise ValueError(f"ground contact links {unknown} are not links of the {character.name} ({', '.join(names)})")
         extra = tuple(override)
     elif key in NO_FALL_CLIPS:
-        extra = LINK_NAMES
+        extra = names
+    elif key in _ALL_BUT_TORSO_CLIPS:
+        extra = tuple(n for i, n in enumerate(names) if i not in character.torso_links)
     else:
         extra = _EXTRA_ALLOWED.get(key, ())
-    return tuple(n for n in LINK_NAMES if n in _ALWAYS_ALLOWED or n in extra)
+    return tuple(n for n in names if n in character.feet or n in extra)
 
 
-def fall_contact_links(motion_name: str, override: tuple[str, ...] | None = None) -> np.ndarray:
-    """Skeleton indices of the links whose ground contact is a fall."""
-    allowed = set(allowed_contact_links(motion_name, override))
-    return np.array([i for i, link in enumerate(LINKS) if link.name not in allowed], dtype=np.int64)
+def fall_contact_links(motion_name: str, override: tuple[str, ...] | None = None, character=HUMANOID3D) -> np.ndarray:
+    """Link indices of the character's links whose ground contact is a fall."""
+    allowed = set(allowed_contact_links(motion_name, override, character))
+    return np.array([i for i, name in enumerate(character.link_names) if name not in allowed], dtype=np.int64)
 
 
 def body_geom_mask(model: mujoco.MjModel, bodies) -> np.ndarray:
@@ -99,7 +98,7 @@ class FallDetector:
         self._root_z_index = 2  # qpos[2]: the free root's height
 
     def touching(self, data: mujoco.MjData) -> int:
-        """Bitmask over skeleton links (bit i: LINKS[i]) of the fall links touching the ground
+        """Bitmask over the character's links (bit i: link i) of the fall links touching the ground
         now; 0 when none does (what ended an episode, for the training metrics)."""
         if data.ncon == 0 or not self.links.size:
             return 0
@@ -121,4 +120,4 @@ class FallDetector:
         key = clip_key(motion_name)
         no_floor = key in LOW_CLIPS or (override is None and key in NO_FALL_CLIPS)
         height = MIN_ROOT_HEIGHT if strict and not no_floor else None
-        return cls(humanoid, fall_contact_links(motion_name, override), height)
+        return cls(humanoid, fall_contact_links(motion_name, override, humanoid.character), height)

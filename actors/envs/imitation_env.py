@@ -31,16 +31,16 @@ import mujoco
 import numpy as np
 
 from actors.arenas import arena_for
-from actors.envs.core import ImitationCore
+from actors.envs.core import CoreParts, ImitationCore
 from actors.envs.falls import FallDetector
-from actors.character.features import POSE_OBS_WIDTH, observation_dim, update_kinematics
-from actors.character.humanoid import Humanoid, PhysicsConfig, control_substeps
-from actors.character.humanoid3d import HUMANOID3D
+from actors.character.features import observation_dim, pose_obs_width, update_kinematics
+from actors.character.humanoid import PhysicsConfig, control_substeps
+from actors.character.humanoid3d import HUMANOID3D, Humanoid
 from actors.motion.reference_motion import ReferenceMotion
 from actors.envs.modes import MODE_NAMES, mode_class
 from actors.envs.modes.movingcam.tracking import MovingcamConfig
 from actors.motion.reference_track import ReferenceTrack
-from actors.envs.modes.sfv.reward import RewardConfig
+from actors.envs.modes.sfv.config import SfvConfig
 from actors.envs.scene_reward import SCENE_LIMB_LINKS, SceneReward, SceneRewardConfig
 from actors.character.state import StateLayout
 
@@ -51,10 +51,8 @@ INIT_STRATEGIES = ("fsi", "rsi", "state")
 class EnvConfig:
     control_hz: float = field(default=30.0, metadata={"help": "policy queries per second (the paper's 30 Hz)"})
     physics: PhysicsConfig = field(default_factory=PhysicsConfig, metadata={"help": "MuJoCo model settings (physics rate, friction)"})
-    reward: RewardConfig = field(default_factory=RewardConfig, metadata={"help": "reward weights and scales"})
     horizon_s: float = field(default=20.0, metadata={"help": "episode horizon for looped clips (seconds)"})
     early_termination: bool = field(default=True, metadata={"help": "end the episode when a link the clip does not allow on the ground touches it (DeepMimic: every link but the feet); off for rolls"})
-    tracking_termination_m: float = field(default=0.0, metadata={"help": "also end the episode (as a fall) when an end effector or the root is farther than this (m) from the reference's (MimicKit pose_termination, PHC/ProtoMotions 0.25-0.5 m; actors/envs/modes/sfv/tracking_termination.py); 0: off. Never used by evaluation"})
     ground_contact_links: tuple[str, ...] | None = field(default=None, metadata={"help": "links besides the feet that may touch the ground without a fall; None: the clip's DeepMimic setting (cartwheel: hands; crawl: limbs; roll, getups: all)"})
     action_parameterisation: str = field(default="exp_map", metadata={"choices": ("exp_map", "axis_angle"), "help": "exp_map (28-D, DeepMimic's current code and MimicKit) or axis_angle (36-D, SFV's, with a dead point at zero). Walk, ASI, absolute targets, eval NR at 1 M samples: exp_map .23, axis_angle .07 (every episode falls in both)"})
     target_lead_s: float = field(default=1.0 / 15.0, metadata={"help": "residual actions add to the reference pose this long after the step they act towards (rounded to control steps), not to that step's pose: PD control lags its target by about kd/kp = 0.1 s, so the reference one step ahead leaves fast motions trailing by up to the whole residual range. Zero actions from RSI, mean end-effector reward term over the first 15 steps at a lead of 0 / 1 / 2 / 3 steps: dance_a .26/.38/.43/.30, backflip .28/.38/.43/.37, walk .56/.63/.65/.65. 0: the step's own pose (before this setting)"})
@@ -65,6 +63,7 @@ class EnvConfig:
     reference_obs_steps: tuple[int, ...] = field(default=(1, 15), metadata={"help": "control steps ahead at which the policy also observes the reference root (position and rotation in its heading frame, drift included; MimicKit tar_obs_steps); () for SFV's observation. Walk, ASI, same seed, eval NR at 1 M samples: .908 with (1, 15), .708 without (RSI: .929 at 1 M with, .901 at 3 M without)"})
     reference_pose_obs_steps: tuple[int, ...] = field(default=(), metadata={"help": "control steps ahead at which the policy also observes the reference's pose: root height and link positions relative to the root in its heading frame, 46 values a step (MimicKit's target observation with key bodies; actors/envs/reference_obs.py); () for none"})
     mode: str = field(default="sfv", metadata={"choices": MODE_NAMES, "help": "sfv: DeepMimic/SFV imitation of the whole reference, root path included; movingcam: the dynamic-camera paper's tracking (002 §5: joint angles, orientation hint, contacts; the root path is left to physics, see actors/envs/modes/movingcam/tracking.py)"})
+    sfv: SfvConfig = field(default_factory=SfvConfig, metadata={"help": "the sfv mode's reward and tracking termination"})
     movingcam: MovingcamConfig = field(default_factory=MovingcamConfig, metadata={"help": "the movingcam mode's reward and termination"})
     state_space: str = field(default="rotvec", metadata={"choices": ("rotvec", "qpos"), "help": "coordinates of the initial-state vectors ASI learns a Gaussian over: rotvec (rotations as rotation vectors, 66-D) or qpos (SFV's raw qpos[2:] + qvel, 75-D, quaternion entries perturbed one by one)"})
     scene: str | None = field(default=None, metadata={"help": "scene file (YAML, boxes along the clip's initial heading: actors/arenas/scene.py) put on the floor; the scene vector joins the observation and 002's scene reward the reward; none: the flat floor"})
@@ -78,11 +77,12 @@ class EnvConfig:
             object.__setattr__(self, "scene", os.path.abspath(self.scene))
         object.__setattr__(self, "reference_obs_steps", tuple(int(k) for k in self.reference_obs_steps))
         object.__setattr__(self, "reference_pose_obs_steps", tuple(int(k) for k in self.reference_pose_obs_steps))
-        if isinstance(self.movingcam, dict):  # from a saved run config
-            object.__setattr__(self, "movingcam", MovingcamConfig(**self.movingcam))
+        for name, kind in (("sfv", SfvConfig), ("movingcam", MovingcamConfig)):
+            if isinstance(getattr(self, name), dict):  # from a saved run config
+                object.__setattr__(self, name, kind(**getattr(self, name)))
         mode_class(self.mode)  # ValueError naming the registered modes
-        if not (self.target_lead_s >= 0 and self.tracking_termination_m >= 0):
-            raise ValueError(f"target_lead_s and tracking_termination_m must be >= 0, got {self.target_lead_s}, {self.tracking_termination_m}")
+        if not self.target_lead_s >= 0:
+            raise ValueError(f"target_lead_s must be >= 0, got {self.target_lead_s}")
         if any(k < 0 for k in self.reference_obs_steps + self.reference_pose_obs_steps):
             raise ValueError(f"reference_obs_steps must be >= 0, got {self.reference_obs_steps}")
 
@@ -103,7 +103,7 @@ class EnvConfig:
         return control_substeps(self.physics, self.control_hz)
 
 
-class ImitationEnv(gym.Env):
+class ImitationEnv(CoreParts, gym.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
 
     def __init__(self, motion: ReferenceMotion, config: EnvConfig = EnvConfig(), humanoid: Humanoid | None = None, track: ReferenceTrack | None = None):
@@ -118,10 +118,10 @@ class ImitationEnv(gym.Env):
         self.substeps = config.substeps
         self.track = track or ReferenceTrack(motion, self.humanoid, 1.0 / config.control_hz, config.horizon_s)
         self.layout = StateLayout(self.humanoid, config.state_space)
-        feature_dim = observation_dim(len(config.reference_obs_steps))
+        feature_dim = observation_dim(len(config.reference_obs_steps), self.humanoid.character)
         scene_dim = 0 if self.scene is None else self.scene.vector_dim
         # The observation: features (actors/character/features.py), the reference's poses ahead, the scene vector.
-        self.scene_obs_start = feature_dim + len(config.reference_pose_obs_steps) * POSE_OBS_WIDTH
+        self.scene_obs_start = feature_dim + len(config.reference_pose_obs_steps) * pose_obs_width(self.humanoid.character)
         self.obs_dim = self.scene_obs_start + scene_dim
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self.obs_dim,), np.float32)
         self.state_dim = self.layout.state_dim
@@ -138,12 +138,6 @@ class ImitationEnv(gym.Env):
         # The env core over a batch of one: this env's physics, features, mode and observation.
         self.core = ImitationCore([self], self.humanoid, self.track, config, feature_dim, self.obs_dim, scene_dim, self.scene_reward, self.scene_limbs)
         core = self.core
-        self.features = core.features
-        self.actions = core.actions
-        self.mode = core.mode
-        self.root_sync = core.root_sync
-        self.reference_obs = core.reference_obs
-        self.reference_pose_obs = core.reference_pose_obs
         self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
         # The boxes' geom ids (empty on the flat floor), for an obstacle-collision termination.
         self.obstacle_geom_ids: tuple[int, ...] = self.arena.obstacle_geom_ids(self.model)

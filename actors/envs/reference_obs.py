@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from actors.character.features import POSE_OBS_WIDTH  # noqa: F401 (per observed step: the reference's root height and link positions)
 
 
 
@@ -53,11 +52,12 @@ class ReferencePoseObservation:
     def __init__(self, track, batch: int, steps: tuple[int, ...]):
         self.steps = np.asarray(steps, dtype=np.int64)
         self.k = len(self.steps)
-        self.width = self.k * POSE_OBS_WIDTH
+        self.table = track.pose_obs  # (rows, pose width): per step the reference's root height and link positions
+        pose_width = self.table.shape[1]
+        self.width = self.k * pose_width
         self.last_row = track.rows - 1
-        self.table = track.pose_obs
         self._rows = np.zeros((batch, self.k), dtype=np.int64)
-        self._buf = np.zeros((batch, self.k, POSE_OBS_WIDTH))
+        self._buf = np.zeros((batch, self.k, pose_width))
         self._flat = self._buf.reshape(batch, self.width)
 
     def write(self, rows: np.ndarray, out: np.ndarray) -> None:

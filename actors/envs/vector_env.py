@@ -13,15 +13,20 @@ import numpy as np
 
 from actors.arenas import arena_for
 from actors.character.humanoid3d import HUMANOID3D
-from actors.envs.core import ImitationCore
+from actors.envs.core import CoreParts, ImitationCore
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.envs.initial_states import BufferedStarts
 from actors.motion.reference_motion import ReferenceMotion
 from actors.motion.reference_track import ReferenceTrack
-from actors.character.skeleton import NUM_LINKS
 
 
-OTHER_END = 1 << NUM_LINKS  # a fall with no fall link on the ground: tracking deviation, divergence, movingcam's rules
+def other_end(character) -> int:
+    """The fall-cause bit of an episode that ended with no fall link on the ground (tracking
+    deviation, divergence, movingcam's rules): the bit after the character's links."""
+    return 1 << character.num_links
+
+
+OTHER_END = other_end(HUMANOID3D)
 
 
 @dataclass
@@ -33,7 +38,7 @@ class EpisodeLog:
     discounted_returns: list = field(default_factory=list)
     lengths: list = field(default_factory=list)
     fell: list = field(default_factory=list)
-    fall_causes: list = field(default_factory=list)  # bitmask: bit i link i on the ground, bit NUM_LINKS another end (0: no fall)
+    fall_causes: list = field(default_factory=list)  # bitmask: bit i link i on the ground, `other_end` another end (0: no fall)
     components: list = field(default_factory=list)
     initial_states: list = field(default_factory=list)
     state_dim: int = 0
@@ -49,7 +54,7 @@ class EpisodeLog:
         return out
 
 
-class VectorImitationEnv:
+class VectorImitationEnv(CoreParts):
     def __init__(self, motion: ReferenceMotion, config: EnvConfig, num_envs: int, starts: BufferedStarts, seed: int = 0, gamma: float = 0.95):
         humanoid = HUMANOID3D.build(config.physics, arena_for(config.scene, motion, config.scene_check_start_pose))
         track = ReferenceTrack(motion, humanoid, 1.0 / config.control_hz, config.horizon_s)
@@ -86,12 +91,6 @@ class VectorImitationEnv:
         self.core = core = ImitationCore(self.envs, humanoid, track, config, first.obs_features_dim, obs_dim, first.scene_vector.size,
                                          first.scene_reward, first.scene_limbs)
         core.mode.set_obstacles(first.obstacle_geom_ids)
-        self.features = core.features
-        self.actions = core.actions
-        self.mode = core.mode
-        self.root_sync = core.root_sync
-        self.reference_obs = core.reference_obs
-        self.reference_pose_obs = core.reference_pose_obs
         self._rows = core.rows
         self._fell = core.fell
         self._diverged = core.diverged
@@ -169,6 +168,6 @@ class VectorImitationEnv:
         log.discounted_returns.append(self._disc[i])
         log.lengths.append(self._len[i])
         log.fell.append(fell)
-        log.fall_causes.append((env.fall_detector.touching(env.data) or OTHER_END) if fell else 0)
+        log.fall_causes.append((env.fall_detector.touching(env.data) or other_end(env.humanoid.character)) if fell else 0)
         log.components.append(self._component[i])
         log.initial_states.append(self._init_state[i].copy())

@@ -13,10 +13,9 @@ import math
 import mujoco
 import numpy as np
 
-from actors.character.features import OBS_DIM, FeatureExtractor, RewardFeatures, update_kinematics
-from actors.character.humanoid import Humanoid
+from actors.character.features import FeatureExtractor, RewardFeatures, pose_obs_width, update_kinematics
+from actors.character.humanoid3d import Humanoid
 from actors.motion.reference_motion import ReferenceMotion
-from actors.character.skeleton import NUM_LINKS
 from actors.character.state import StateLayout
 
 
@@ -41,14 +40,15 @@ class ReferenceTrack:
         model = humanoid.model
         self.qpos = np.zeros((rows, model.nq))
         self.qvel = np.zeros((rows, model.nv))
-        self.features = RewardFeatures.zeros(model.nv, rows)
-        self.ctrl = np.zeros((rows, model.nu))
         scratch = mujoco.MjData(model)
         features = FeatureExtractor(humanoid)
+        self.features = RewardFeatures.zeros(model.nv, rows, features.reward_shape)
+        self.ctrl = np.zeros((rows, model.nu))
         # The reference's own pose as the policy observes a pose: root height, link positions
         # relative to the root in the heading frame (`actors/envs/reference_obs.py`).
-        self.pose_obs = np.zeros((rows, 1 + 3 * NUM_LINKS))
-        observation = np.zeros((1, OBS_DIM))
+        pose_width = pose_obs_width(humanoid.character)
+        self.pose_obs = np.zeros((rows, pose_width))
+        observation = np.zeros((1, features.obs_dim))
         poses = motion.sample(times)
         for k in range(rows):
             pose_k = type(poses)(*(getattr(poses, f)[k] for f in poses.__dataclass_fields__))
@@ -60,7 +60,7 @@ class ReferenceTrack:
             self.ctrl[k] = scratch.actuator_length
             self.features.values[k] = features.reward_features_of(scratch).values[0]
             features.observations(self.phase[k], observation)  # the rows just captured
-            self.pose_obs[k] = observation[0, :1 + 3 * NUM_LINKS]
+            self.pose_obs[k] = observation[0, :pose_width]
         self._rows = [self.features.slice(slice(k, k + 1)) for k in range(rows)]  # views, built once
 
     def reward_features(self, row: int) -> RewardFeatures:

@@ -12,6 +12,7 @@ import time
 import numpy as np
 import torch
 
+from actors.character.actions import ActionMapper
 from actors.character.features import OBS_DIM
 from learner.config import PPOConfig
 from learner.ppo import PPOLearner
@@ -19,7 +20,7 @@ from services.bench.config import BenchConfig
 from services.bench.measure import Summary, interleaved, ratio
 from services.bench.result import SuiteResult
 
-ACTION_DIM = 36
+ACTION_DIM = ActionMapper("axis_angle").action_dim  # SFV's action of the humanoid3d: 36
 ENVS = 64  # time-major layout (T, N) as two workers x 32 envs deliver it
 
 

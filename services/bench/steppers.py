@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 
 from actors.character.features import OBS_DIM
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.motion.reference_motion import ReferenceMotion
 from actors.rollout.worker import RolloutWorker, WorkerSpec

@@ -10,7 +10,7 @@ PIPELINE_SETS = frozenset({"motion", "env.scene"})
 def train_config(args, motion: str, out: str):
     """The training's TrainConfig: `sfv train`'s defaults, then --config, then the flags given."""
     from learner.errors import SfvError
-    from services.training.flags import given_settings, read_config_file, resolve
+    from services.training.flags import chosen_presets, given_settings, read_config_file, resolve
 
     given, flags = {}, {}
     if args.config is not None:
@@ -21,7 +21,7 @@ def train_config(args, motion: str, out: str):
     from_flags, flag_names = given_settings(args)
     given.update(from_flags)
     flags.update(flag_names)
-    config = resolve(given, flags, None, getattr(args, "preset:reward", None))
+    config = resolve(given, flags, None, chosen_presets(args))
     config.motion, config.out = motion, out
     config.validate()
     return config

@@ -90,32 +90,10 @@ def _train(args) -> int:
     return 0
 
 
-def load_task_run(run_dir: str):
-    """(TaskConfig, policy weights) of a task run's newest checkpoint."""
-    from pathlib import Path
-
-    import numpy as np
-
-    from learner.checkpoint import load_checkpoint
-    from learner.errors import SfvError
-    from services.tasks.config import TaskConfig
-    from services.training.run_dir import CONFIG_FILE, checkpoint_files
-
-    path = Path(run_dir) / CONFIG_FILE
-    if not path.is_file():
-        raise SfvError(f"{run_dir}: not a task run directory (no {CONFIG_FILE})")
-    config = TaskConfig.from_dict(json.loads(path.read_text()))
-    checkpoints = checkpoint_files(Path(run_dir))
-    if not checkpoints:
-        raise SfvError(f"{run_dir}: no checkpoint yet")
-    payload = load_checkpoint(checkpoints[-1])
-    weights = {k: v.numpy() if hasattr(v, "numpy") else np.asarray(v) for k, v in payload["policy_weights"].items()}
-    return config, weights
-
-
 def _evaluate(args) -> int:
     from learner.errors import SfvError
     from services.tasks.evaluation import evaluate_task
+    from services.tasks.run_dir import load_task_run
 
     if not args.run:
         raise SfvError("sfv task eval: give the run directory")
@@ -130,6 +108,7 @@ def _evaluate(args) -> int:
 
 def _render(args) -> int:
     from learner.errors import SfvError
+    from services.tasks.run_dir import load_task_run
     from services.tasks.video import render_task
 
     if not args.run or not args.video:

@@ -37,7 +37,7 @@ def build_config(args):
     from pathlib import Path
 
     from learner.errors import SfvError
-    from services.training.flags import given_settings, read_config_file, resolve
+    from services.training.flags import chosen_presets, given_settings, read_config_file, resolve
     from services.training.run_dir import CONFIG_FILE
 
     given, flags = {}, {}
@@ -54,7 +54,7 @@ def build_config(args):
     base = None
     if args.resume and saved is not None and saved.exists():
         base = json.loads(saved.read_text())
-    config = resolve(given, flags, base, getattr(args, "preset:reward", None), resuming=base is not None)
+    config = resolve(given, flags, base, chosen_presets(args), resuming=base is not None)
     if out is not None:
         config.out = str(out)
     return config

@@ -13,7 +13,6 @@ import numpy as np
 
 from actors.envs.imitation_env import ImitationEnv
 from actors.motion.formats.io import load_motion
-from actors.character.skeleton import NUM_JOINTS
 from learner.errors import SfvError
 from learner.policy import NumpyPolicy
 from services.training.run_dir import CONFIG_FILE
@@ -47,7 +46,7 @@ def reference_rotations(env: ImitationEnv) -> tuple[np.ndarray, np.ndarray]:
     """Root and local joint rotations of the reference at every start row of the env's track."""
     rows = env.track.start_steps
     qpos = env.track.qpos[:rows]
-    joint_rot = np.empty((rows, NUM_JOINTS, 4))
+    joint_rot = np.empty((rows, env.layout.num_joints, 4))
     for row in range(rows):
         env.layout.joint_quats_from_qpos(qpos[row], joint_rot[row])
     return qpos[:, 3:7].copy(), joint_rot

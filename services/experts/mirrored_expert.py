@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.character.mirror import action_mirror, mirrored_name, observation_mirror
 from services.experts.expert import Expert
 

@@ -15,7 +15,6 @@ import numpy as np
 
 from actors.envs.imitation_env import ImitationEnv
 from actors.motion.reference_motion import ReferenceMotion
-from actors.character.skeleton import NUM_JOINTS
 
 
 @dataclass
@@ -65,7 +64,7 @@ def record_episode(policy, env: ImitationEnv, seed: int, init: str, seconds: flo
     for progress in episode_steps(policy, env, seed, init, seconds):
         if root_pos is None:  # after reset, when the episode's length is known
             rows = progress.max_steps + 1
-            root_pos, root_rot, joint_rot = np.empty((rows, 3)), np.empty((rows, 4)), np.empty((rows, NUM_JOINTS, 4))
+            root_pos, root_rot, joint_rot = np.empty((rows, 3)), np.empty((rows, 4)), np.empty((rows, env.layout.num_joints, 4))
         qpos = env.data.qpos
         if not np.isfinite(qpos).all():
             break  # the simulation diverged on this step (the env ends the episode as a fall)

@@ -25,7 +25,7 @@ import numpy as np
 
 from actors.envs.tasks.future_reference import FUTURE_DIM
 from actors.envs.tasks.proprioception import PROPRIO_DIM
-from actors.character.skeleton import NUM_ACTUATED_DOF
+from actors.character.humanoid3d import HUMANOID3D
 from learner.atomic_io import atomic_output, atomic_write_json
 from learner.errors import SfvError
 
@@ -35,8 +35,8 @@ VERSION = 1
 FIELDS: dict[str, tuple[str, tuple[int, ...]]] = {
     "proprio": ("float32", (PROPRIO_DIM,)),
     "future": ("float32", (FUTURE_DIM,)),
-    "mean_targets": ("float32", (NUM_ACTUATED_DOF,)),
-    "applied_targets": ("float32", (NUM_ACTUATED_DOF,)),
+    "mean_targets": ("float32", (HUMANOID3D.nu,)),  # the experts' character's actuators
+    "applied_targets": ("float32", (HUMANOID3D.nu,)),
     "reward": ("float32", ()),
     "clip": ("int16", ()),
     "episode": ("int32", ()),

@@ -55,9 +55,9 @@ def _write_module_config(out: Path, config: MotorModuleConfig, dataset: Path, ma
     path = out / CONFIG_FILE
     record = {"module": config.to_dict(), "dataset": str(dataset), "held_out": list(held_out),
               "clips": [c for c in manifest["clips"] if c not in held_out],
-              "decoder_input": "proprio (196): actors/envs/tasks/proprioception.py; z (latent_dim)",
-              "decoder_output": "absolute PD targets (28, rad), the env's ctrl order (actors/character/actions.py)",
-              "encoder_input": "future (565): actors/envs/tasks/future_reference.py (k = 5) and z_t-1"}
+              "decoder_input": f"proprio ({config.proprio_dim}): actors/envs/tasks/proprioception.py; z (latent_dim)",
+              "decoder_output": f"absolute PD targets ({config.action_dim}, rad), the env's ctrl order (actors/character/actions.py)",
+              "encoder_input": f"future ({config.future_dim}): actors/envs/tasks/future_reference.py (k = 5) and z_t-1"}
     if path.exists():
         saved = json.loads(path.read_text())
         if saved.get("module") != json.loads(json.dumps(record["module"])) or saved.get("held_out") != record["held_out"]:
@@ -74,8 +74,9 @@ class Distiller:
 
         if run.torch_threads:
             torch.set_num_threads(run.torch_threads)
-        self.out, self.config, self.run = Path(out), config, run
         data, manifest = load_dataset(dataset, held_out)
+        config = config.with_sizes_of(data["proprio"].shape[1], data["future"].shape[1], data["mean_targets"].shape[1])
+        self.out, self.config, self.run = Path(out), config, run
         self.clips = [c for c in manifest["clips"] if c not in held_out]
         self.out.mkdir(parents=True, exist_ok=True)
         _write_module_config(self.out, config, Path(dataset), manifest, held_out)

@@ -11,7 +11,7 @@ import cv2
 import mujoco
 import numpy as np
 
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.motion.reference_motion import ReferenceMotion
 from actors.character.state import StateLayout
 from learner.errors import SfvError

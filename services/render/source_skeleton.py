@@ -16,7 +16,7 @@ import numpy as np
 
 from actors.motion.formats.bvh import read_bvh
 from actors.motion.formats.bvh_pose import bvh_forward_kinematics
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.motion.reference_motion import ReferenceMotion
 from actors.motion.formats.retarget import RetargetOptions, source_frame
 from actors.motion.formats.rigs import resolve_rig

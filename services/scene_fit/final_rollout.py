@@ -20,7 +20,6 @@ from actors.character.foot_contact import FOOT_LINKS
 from actors.envs.imitation_env import ImitationEnv
 from actors.motion.reference_motion import ReferenceMotion
 from actors.motion.formats.io import load_motion
-from actors.character.skeleton import NUM_JOINTS
 from services.scene_fit import scene_contract
 from services.scene_fit.handover import WindowRollouts, start_episode
 from services.scene_fit.motion_scores import contact_accuracy, foot_contacts, mpjpe
@@ -39,7 +38,7 @@ class SimulatedRun:
     control_hz: float
 
     def motion(self, name: str, layout) -> ReferenceMotion:
-        joint_rot = np.empty((len(self.qpos), NUM_JOINTS, 4))
+        joint_rot = np.empty((len(self.qpos), layout.num_joints, 4))
         for t, q in enumerate(self.qpos):
             layout.joint_quats_from_qpos(q, joint_rot[t])
         extras = {"simulated_contacts": self.contacts, "window_of_frame": self.window_of_frame, "clip_frame": self.clip_frames}

@@ -1,7 +1,7 @@
 """A scene fit from a root-free motion and a scene file: windows -> SLSQP fit -> final rollout.
 
 The pipeline (`sfv pipeline VIDEO --camera moving --scene boxes.yaml`) runs it after the
-reconstruction; `bench/scene_fit.py` runs it on a synthetic box clip. `check_inputs` reads and
+reconstruction; `services/bench/scripts/scene_fit.py` runs it on a synthetic box clip. `check_inputs` reads and
 checks the motion and the scene before anything is trained, so that bad input is one line.
 """
 from __future__ import annotations
@@ -70,7 +70,7 @@ def run_scene_fit(motion_path: str, scene_path: str | None, out: Path, base: Tra
         summary["initial_scene_scores"] = stages.initial.scores(reference_contacts)  # Table 2's "fixed scene"
     simulated = stages.simulated
     summary["scores"] = simulated.scores(reference_contacts)
-    from actors.character.humanoid import Humanoid
+    from actors.character.humanoid3d import Humanoid
     from actors.character.state import StateLayout
 
     motion = simulated.motion(f"{clip.name}-simulated", StateLayout(Humanoid()))

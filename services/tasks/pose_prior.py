@@ -21,7 +21,7 @@ ALL_CLIPS = ("backflip", "cartwheel", "crawl", "dance_a", "dance_b", "getup_face
 
 def clip_poses(clip: str, control_hz: float = 30.0) -> np.ndarray:
     """(T, 28) joint coordinates of a DeepMimic clip's frames at the control rate."""
-    from actors.character.humanoid import Humanoid
+    from actors.character.humanoid3d import Humanoid
     from actors.motion.formats.io import load_motion
     from actors.motion.reference_track import ReferenceTrack
 

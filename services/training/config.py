@@ -6,7 +6,6 @@ from dataclasses import dataclass, field
 
 from actors.character.humanoid import PhysicsConfig
 from actors.envs.imitation_env import EnvConfig
-from actors.envs.modes.sfv.reward import RewardConfig
 from learner.config import PPOConfig
 from learner.errors import ConfigError
 
@@ -31,7 +30,7 @@ class TrainConfig:
     asi_outage_s: float = field(default=30.0, metadata={"help": "seconds a worker keeps retrying an unreachable ASI server for starts before training stops"})
     asi_components: int = field(default=10, metadata={"help": "k, Gaussian components of the ASI distribution"})
     asi_episodes_per_update: int = field(default=2000, metadata={"help": "episodes reported per ASI gradient step (paper: 2000)"})
-    asi_initial_std_scale: float = field(default=0.1, metadata={"help": "initial std of every ASI component = this x the clip's per-dimension sample std (paper: 1). Measured with a trained walk policy over the first 2 s (bench/asi_start_spread.py): RSI reward/step .93, no falls; ASI at 1: .53, 57 in 100 starts fall (rotvec), 59 (qpos); 0.5: .76, 28; 0.25: .91, 5; 0.1: .94, 0. The fast clips' velocity spreads are 2-3x the walk's: control steps survived under pure PD tracking from 30 starts (bench/pd_tracking.py), reference / 0.1 / 0.25: dance_a 31 / 32 / 29, spinkick 29 / 28 / 26, backflip 29 / 29 / 25, cartwheel 46 / 45 / 35"})
+    asi_initial_std_scale: float = field(default=0.1, metadata={"help": "initial std of every ASI component = this x the clip's per-dimension sample std (paper: 1). Measured with a trained walk policy over the first 2 s (services/bench/scripts/asi_start_spread.py): RSI reward/step .93, no falls; ASI at 1: .53, 57 in 100 starts fall (rotvec), 59 (qpos); 0.5: .76, 28; 0.25: .91, 5; 0.1: .94, 0. The fast clips' velocity spreads are 2-3x the walk's: control steps survived under pure PD tracking from 30 starts (services/bench/scripts/pd_tracking.py), reference / 0.1 / 0.25: dance_a 31 / 32 / 29, spinkick 29 / 28 / 26, backflip 29 / 29 / 25, cartwheel 46 / 45 / 35"})
     asi_step_size: float = field(default=0.001, metadata={"help": "ASI step size alpha_rho (paper: 0.001 with --asi-update-rule gradient; with natural it is the step in units of sigma, e.g. 0.1)"})
     asi_update_rule: str = field(default="gradient", metadata={"choices": ("gradient", "natural"), "help": "ASI's update: gradient (the paper's step: it grows as 1/sigma^2 and with the returns' scale; asi/mean_shift_sigma in the metrics says how far it moved) or natural (normalised advantages, Fisher-preconditioned: services/asi/distribution.py natural_step)"})
     job_id: str | None = field(default=None, metadata={"help": "ASI job id; derived from the run directory when absent"})
@@ -122,17 +121,32 @@ class TrainConfig:
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":
-        d = _upgrade(dict(d))
+        d = _sfv_mode_settings(_upgrade(dict(d)))
         if d.pop("serial", False) and "runner" not in d:  # written before the runners had names
             d["runner"] = "in_process"
         env = dict(d.pop("env", {}))
         physics = PhysicsConfig(**env.pop("physics", {}))
-        reward = RewardConfig(**env.pop("reward", {}))
         ppo = PPOConfig.from_dict(d.pop("ppo", {}))
         try:
-            return cls(**d, env=EnvConfig(physics=physics, reward=reward, **env), ppo=ppo)
+            return cls(**d, env=EnvConfig(physics=physics, **env), ppo=ppo)
         except TypeError as exc:  # a config from another version: name the field
             raise ConfigError(f"run config: {exc}") from None
+
+
+def _sfv_mode_settings(d: dict) -> dict:
+    """A run config written before the sfv mode owned its settings keeps its reward and
+    tracking termination at `env.reward` / `env.tracking_termination_m`: move them under
+    `env.sfv`, where the mode reads them."""
+    env = dict(d.get("env", {}))
+    if "reward" not in env and "tracking_termination_m" not in env:
+        return d
+    sfv = dict(env.get("sfv", {}))
+    for name in ("reward", "tracking_termination_m"):
+        if name in env:
+            sfv[name] = env.pop(name)
+    env["sfv"] = sfv
+    d["env"] = env
+    return d
 
 
 def _upgrade(d: dict) -> dict:
@@ -147,7 +161,7 @@ def _upgrade(d: dict) -> dict:
         d["env"] = env
     if not env or "residual_action_scale" in env:
         return d
-    from actors.character.skeleton import LINK_NAMES
+    from actors.character.humanoid3d import HUMANOID3D  # the only character of those runs
 
     d.setdefault("curriculum_start_s", 0.0)
     d.setdefault("asi_initial_std_scale", 1.0)
@@ -159,7 +173,7 @@ def _upgrade(d: dict) -> dict:
     env.setdefault("state_space", "qpos")
     env.setdefault("reference_obs_steps", ())
     # The old rule: only the root, chest and neck touching the ground was a fall.
-    env.setdefault("ground_contact_links", tuple(n for n in LINK_NAMES if n not in ("root", "chest", "neck")))
+    env.setdefault("ground_contact_links", tuple(n for n in HUMANOID3D.link_names if n not in ("root", "chest", "neck")))
     reward = dict(env.get("reward", {}))
     if "form" not in reward:
         reward.update(form="sfv_paper", root_weight=0.0)

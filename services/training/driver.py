@@ -26,7 +26,7 @@ import numpy as np
 from actors.envs.imitation_env import ImitationEnv
 from actors.motion.formats.io import load_motion
 from actors.rollout.worker import RolloutWorker, WorkerSpec
-from actors.character.skeleton import LINK_NAMES
+from actors.character.humanoid3d import HUMANOID3D
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
 from learner.errors import NonFiniteError, SfvError
 from learner.ppo import PPOLearner
@@ -349,13 +349,13 @@ class ASIDrift:
         return {"asi/mean_shift_sigma": float(shift.mean()), "asi/std_ratio": float((dist.stds / self.first.stds).mean())}
 
 
-def fall_cause_shares(causes: np.ndarray | None) -> dict:
+def fall_cause_shares(causes: np.ndarray | None, character=HUMANOID3D) -> dict:
     """`falls/<link>`: the share of this batch's episodes that ended with that link on the
     ground (several links can touch at once); `falls/other`: ended otherwise (tracking
     deviation, divergence). Only the causes that occurred."""
     if causes is None or not len(causes):
         return {}
-    names = [*LINK_NAMES, "other"]
+    names = [*character.link_names, "other"]
     bits = (np.asarray(causes, np.int64)[:, None] >> np.arange(len(names))) & 1
     shares = bits.mean(axis=0)
     return {f"falls/{name}": float(share) for name, share in zip(names, shares) if share > 0}

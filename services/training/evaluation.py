@@ -54,7 +54,7 @@ from pathlib import Path
 import numpy as np
 
 from actors.envs.falls import FallDetector
-from actors.character.features import NUM_REWARD_QUATS, RewardFeatures
+from actors.character.features import RewardFeatures
 from actors.envs.imitation_env import ImitationEnv
 from learner.errors import SfvError
 from services.training.config import TrainConfig
@@ -62,20 +62,20 @@ from services.training.config import TrainConfig
 DEFAULT_EPISODES = 32  # sfv eval
 PUSH_RECOVERY_S = 1.0  # no push starts later than this before an episode's end
 TRAVEL_M = 0.05  # a looped clip whose root moves less than this per cycle has no distance_ratio
-_NUM_JOINTS = NUM_REWARD_QUATS - 1 + 4  # 8 ball joints + 4 hinges (the root's orientation is not a joint)
 
 
 # ------------------------------------------------------------------------------ metrics
 def tracking_errors(sim: RewardFeatures, ref: RewardFeatures) -> tuple[np.ndarray, np.ndarray]:
-    """Per row: (mean joint rotation error over the 12 joints in rad, mean end-effector
-    distance over the 4 end effectors in m) between two equally long feature batches.
+    """Per row: (mean joint rotation error over the character's joints in rad, mean
+    end-effector distance in m; humanoid3d: 12 joints, 4 end effectors) between two equally
+    long feature batches. The root's orientation is not a joint.
 
     Ball joints: the angle of q*^-1 q, 2 acos|<q, q*>|; hinges: |angle gap| wrapped to [0, pi].
     End effectors: Euclidean distance of the heading-frame positions."""
-    dot = np.abs(np.vecdot(sim.quats[:, 1:], ref.quats[:, 1:]))  # (B, 8): the ball joints, root excluded
+    dot = np.abs(np.vecdot(sim.quats[:, 1:], ref.quats[:, 1:]))  # (B, balls): the ball joints, root excluded
     ball = 2.0 * np.arccos(np.minimum(dot, 1.0))
-    gap = np.abs(np.remainder(sim.hinges - ref.hinges + np.pi, 2.0 * np.pi) - np.pi)  # (B, 4)
-    rotation = (ball.sum(axis=1) + gap.sum(axis=1)) / _NUM_JOINTS
+    gap = np.abs(np.remainder(sim.hinges - ref.hinges + np.pi, 2.0 * np.pi) - np.pi)  # (B, hinges)
+    rotation = (ball.sum(axis=1) + gap.sum(axis=1)) / (ball.shape[1] + gap.shape[1])
     end_effector = np.linalg.norm(sim.end_effectors - ref.end_effectors, axis=-1).mean(axis=1)
     return rotation, end_effector
 

@@ -1,17 +1,22 @@
 """`sfv train`'s settings from one place: the config dataclasses' fields.
 
-Every leaf field of `TrainConfig` (its own fields, `env`, `env.physics`, `env.reward`, `ppo`)
-becomes a flag named by its path (`--samples`, `--env.horizon-s`, `--env.physics.physics-hz`,
-`--ppo.update-epochs`) whose type, choices and help text come from the field, so a default is
-declared once, in the dataclass. The short flags users know (`--epochs`, `--physics-hz`,
-`--hidden`, `--reward`, ...) are aliases of those paths (`ALIASES`). A YAML file
-(`--config FILE.yaml`, the nested layout `--print-config` writes) sets any field too.
+Every leaf field of `TrainConfig` (its own fields, `env`, `env.physics`, each env mode's
+`env.sfv` / `env.movingcam`, `ppo`) becomes a flag named by its path (`--samples`,
+`--env.horizon-s`, `--env.physics.physics-hz`, `--ppo.update-epochs`) whose type, choices and
+help text come from the field, so a default is declared once, in the dataclass. The short
+flags users know (`--epochs`, `--physics-hz`, `--hidden`, ...) are aliases of those paths
+(`ALIASES`). A YAML file (`--config FILE.yaml`, the nested layout `--print-config` writes) sets
+any field too. The env mode is `--env.mode`. Presets are named bundles of settings applied
+under whatever is given (`REWARD_PRESETS`, `SETUP_PRESETS`): `--reward deepmimic|sfv_paper`
+sets the sfv mode's reward, `--preset movingcam` the dynamic-camera paper's setup (the env
+mode, residual targets, adaptive tuple sampling).
 
-Precedence: the dataclass defaults, then the config file, then the flags given. With
-`--resume`, the run's saved config replaces the defaults; settings given explicitly win where
-changing them mid-run is safe (`SAFE_ON_RESUME`: budget, learning rates, epochs, workers,
-addresses, ...) and are refused with a one-line error where it is not (network sizes, physics,
-reward, action and observation spaces), instead of being dropped silently.
+Precedence: the dataclass defaults, then the presets, then the config file, then the flags
+given. With `--resume`, the run's saved config replaces the defaults; settings given
+explicitly win where changing them mid-run is safe (`SAFE_ON_RESUME`: budget, learning rates,
+epochs, workers, addresses, ...) and are refused with a one-line error where it is not
+(network sizes, physics, reward, action and observation spaces), instead of being dropped
+silently.
 """
 from __future__ import annotations
 
@@ -27,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from learner.errors import SfvError
+from learner.yaml_io import read_yaml
 
 _MISSING = object()
 
@@ -75,14 +81,15 @@ def _int_list(positive_only: bool, allow_none: bool):
 
 
 def _link_names(text: str) -> tuple[str, ...]:
-    from actors.character.skeleton import LINK_NAMES
+    from actors.character.humanoid3d import HUMANOID3D
 
+    links = HUMANOID3D.link_names  # the character sfv trains
     if text.strip().lower() == "none":
         return ()
     names = tuple(part.strip() for part in text.split(",") if part.strip())
-    unknown = [n for n in names if n not in LINK_NAMES]
+    unknown = [n for n in names if n not in links]
     if not names or unknown:
-        raise argparse.ArgumentTypeError(f"expected link names separated by commas (of {', '.join(LINK_NAMES)}), got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected link names separated by commas (of {', '.join(links)}), got {text!r}")
     return names
 
 
@@ -122,7 +129,9 @@ ALIASES = (
     Alias("--no-root-sync", ("env.sync_root_per_cycle",), const=False,
           help="do not re-synchronise the reference root to the character each cycle"),
 )
-REWARD_PRESETS = ("deepmimic", "sfv_paper", "movingcam")
+REWARD_PRESETS = ("deepmimic", "sfv_paper")  # `--reward`: the sfv mode's reward
+SETUP_PRESETS = ("movingcam",)  # `--preset`: settings across the env and the learner
+PRESET_FLAGS = {"preset:reward": "--reward", "preset:setup": "--preset"}  # argparse dest -> flag
 
 # Changing these between a checkpoint and its continuation leaves the learner, its ASI
 # distribution and the env consistent; anything else is refused on --resume.
@@ -240,10 +249,26 @@ def add_config_flags(parser: argparse.ArgumentParser, skip: frozenset[str] = fro
             group.add_argument(alias.flag, dest=dest, action="store_const", const=alias.const, default=argparse.SUPPRESS, help=help_text)
         else:
             group.add_argument(alias.flag, dest=dest, type=alias.type, default=argparse.SUPPRESS, help=help_text, metavar=alias.metavar)
-    group.add_argument("--reward", dest="preset:reward", choices=REWARD_PRESETS, default=argparse.SUPPRESS,
-                       help="reward preset (default deepmimic: weighted-mean joint errors, root term, centre-of-mass velocity; "
-                            "sfv_paper: the paper's sums and weights; movingcam: the dynamic-camera paper's tracking mode, "
-                            "root path left to physics, residual targets); --env.reward.* / --env.movingcam.* fields adjust them")
+    group.add_argument("--reward", dest="preset:reward", type=_reward_preset, default=argparse.SUPPRESS, metavar="{deepmimic,sfv_paper}",
+                       help="the sfv mode's reward preset (default deepmimic: weighted-mean joint errors, root term, centre-of-mass "
+                            "velocity; sfv_paper: the paper's sums and weights); --env.sfv.reward.* fields adjust it")
+    group.add_argument("--preset", dest="preset:setup", choices=SETUP_PRESETS, default=argparse.SUPPRESS,
+                       help="movingcam: the dynamic-camera paper's setup (--env.mode movingcam: its tracking reward and termination, "
+                            "root path left to physics; residual targets; adaptive tuple sampling); --env.movingcam.* fields adjust it")
+
+
+def _reward_preset(text: str) -> str:
+    if text == "movingcam":  # the old spelling, when the reward flag also chose the mode
+        raise argparse.ArgumentTypeError("movingcam is an env mode, not a reward: --preset movingcam "
+                                         "(the mode with residual targets and adaptive tuple sampling) or --env.mode movingcam")
+    if text not in REWARD_PRESETS:
+        raise argparse.ArgumentTypeError(f"expected one of {', '.join(REWARD_PRESETS)}, got {text!r}")
+    return text
+
+
+def chosen_presets(args: argparse.Namespace) -> dict[str, str]:
+    """{preset name: the flag that chose it} of the parsed command line."""
+    return {getattr(args, dest): flag for dest, flag in PRESET_FLAGS.items() if hasattr(args, dest)}
 
 
 def given_settings(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, str]]:
@@ -268,15 +293,8 @@ def given_settings(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, 
 # ------------------------------------------------------------------------ config files
 def read_config_file(path: str | Path) -> dict[str, Any]:
     """{config path: value} from a YAML (or JSON) file in `--print-config`'s nested layout."""
-    import yaml
-
     path = Path(path)
-    try:
-        document = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise SfvError(f"{path}: cannot read config file ({exc.strerror or exc})") from None
-    except yaml.YAMLError as exc:
-        raise SfvError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    document = read_yaml(path, "config file")
     if not isinstance(document, dict):
         raise SfvError(f"{path}: a config file holds a mapping of settings, got {type(document).__name__}")
     by_path = {leaf.path: leaf for leaf in leaves()}
@@ -284,7 +302,7 @@ def read_config_file(path: str | Path) -> dict[str, Any]:
 
     def walk(node: dict, prefix: str) -> None:
         for key, value in node.items():
-            name = prefix + str(key)
+            name = _current_path(prefix + str(key))
             if isinstance(value, dict) and name not in by_path:
                 walk(value, name + ".")
             elif name not in by_path:
@@ -294,6 +312,17 @@ def read_config_file(path: str | Path) -> dict[str, Any]:
 
     walk(document, "")
     return flat
+
+
+# Settings that moved (a config file written before keeps working): old path prefix -> new.
+MOVED_SETTINGS = {"env.reward": "env.sfv.reward", "env.tracking_termination_m": "env.sfv.tracking_termination_m"}
+
+
+def _current_path(name: str) -> str:
+    for old, new in MOVED_SETTINGS.items():
+        if name == old or name.startswith(old + "."):
+            return new + name[len(old):]
+    return name
 
 
 def _checked(source: Path, leaf: Leaf, value):
@@ -320,21 +349,17 @@ def _type_name(kind) -> str:
 
 
 # ------------------------------------------------------------------------- resolution
-def resolve(given: dict[str, Any], flags: dict[str, str], base: dict | None = None, reward_preset: str | None = None,
-            resuming: bool = False):
+def resolve(given: dict[str, Any], flags: dict[str, str], base: dict | None = None,
+            presets: str | dict[str, str] | None = None, resuming: bool = False):
     """The TrainConfig: `base` (a saved run config's dict; the defaults when None) with the
-    given settings applied. On resume, an unsafe setting that differs from the run's is an
-    SfvError naming its flag."""
-    from actors.envs.modes.sfv.reward import RewardConfig
+    presets (a name, or {name: the flag that chose it}) and then the given settings applied.
+    On resume, an unsafe setting that differs from the run's is an SfvError naming its flag."""
     from services.training.config import TrainConfig
 
     config_dict = json.loads(json.dumps((TrainConfig() if base is None else TrainConfig.from_dict(base)).to_dict()))
-    if reward_preset == "movingcam":
-        given, flags = movingcam_preset(given, flags)
-    elif reward_preset is not None:
-        preset = RewardConfig() if reward_preset == "deepmimic" else RewardConfig.sfv_paper()
-        given = {**{f"env.reward.{k}": v for k, v in dataclasses.asdict(preset).items()}, **given}
-        flags = {**{f"env.reward.{k}": "--reward" for k in dataclasses.asdict(preset)}, **flags}
+    for name, flag in ({presets: "--preset"} if isinstance(presets, str) else presets or {}).items():
+        preset = preset_settings(name)
+        given, flags = {**preset, **given}, {**dict.fromkeys(preset, flag), **flags}
     if resuming:
         _refuse_unsafe_changes(given, flags, config_dict)
     for path, value in given.items():
@@ -347,19 +372,30 @@ def resolve(given: dict[str, Any], flags: dict[str, str], base: dict | None = No
         raise SfvError(f"sfv train: {exc}") from None
 
 
-def movingcam_preset(given: dict, flags: dict) -> tuple[dict, dict]:
-    """`--reward movingcam`: the env's movingcam mode with 002's reward and termination defaults
-    residual targets (eq. 1: q_target = q_ref + a) and adaptive tuple sampling (eq. 13), under
-    whatever the user gave."""
+def preset_settings(name: str) -> dict[str, Any]:
+    """{config path: value} of a named preset (`REWARD_PRESETS`, `SETUP_PRESETS`)."""
+    from actors.envs.modes.sfv.reward import RewardConfig
+
+    if name == "movingcam":
+        return _movingcam_setup()
+    if name not in REWARD_PRESETS:
+        raise SfvError(f"unknown preset {name!r} (presets: {', '.join(REWARD_PRESETS + SETUP_PRESETS)})")
+    reward = RewardConfig() if name == "deepmimic" else RewardConfig.sfv_paper()
+    return {f"env.sfv.reward.{k}": v for k, v in dataclasses.asdict(reward).items()}
+
+
+def _movingcam_setup() -> dict[str, Any]:
+    """The env's movingcam mode with 002's reward and termination defaults, residual targets
+    (eq. 1: q_target = q_ref + a) and adaptive tuple sampling (eq. 13), which comes with the
+    mode in the paper."""
     from actors.envs.imitation_env import EnvConfig
     from actors.envs.modes.movingcam.tracking import MovingcamConfig
 
-    # Adaptive tuple sampling (002 §5.2, eq. 13) comes with the mode, as in the paper.
     preset = {"env.mode": "movingcam", "env.residual_action_scale": EnvConfig().residual_action_scale or 0.5,
               "ppo.tuple_sampling": "adaptive"}
     for leaf in leaves(MovingcamConfig, "env.movingcam."):
         preset[leaf.path] = leaf.default
-    return {**preset, **given}, {**dict.fromkeys(preset, "--reward"), **flags}
+    return preset
 
 
 def _refuse_unsafe_changes(given: dict, flags: dict, saved: dict) -> None:

@@ -18,15 +18,14 @@ from __future__ import annotations
 import mujoco
 
 from actors.envs.falls import MIN_ROOT_HEIGHT, FallDetector, body_geom_mask, fall_contact_links
-from actors.character.skeleton import FALL_CONTACT_LINKS
 
 
 class FloorFall(FallDetector):
     def __init__(self, humanoid):
-        super().__init__(humanoid, fall_contact_links("walk"), MIN_ROOT_HEIGHT)  # the feet may touch, nothing else
+        super().__init__(humanoid, fall_contact_links("walk", character=humanoid.character), MIN_ROOT_HEIGHT)  # the feet may touch, nothing else
         model = humanoid.model
         self.floor = humanoid.floor_geom_id
-        self.trunk = body_geom_mask(model, humanoid.body_ids[FALL_CONTACT_LINKS])
+        self.trunk = body_geom_mask(model, humanoid.body_ids[humanoid.character.torso_links])
         self.prop = ~body_geom_mask(model, humanoid.body_ids)
         self.prop[self.floor] = False
         self.has_props = bool(self.prop.any())

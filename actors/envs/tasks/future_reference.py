@@ -20,33 +20,39 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from actors.character.features import REFERENCE_OBS_WIDTH, FeatureExtractor, observation_dim, update_kinematics
-from actors.character.humanoid import Humanoid
-from actors.envs.tasks.proprioception import PROPRIO_DIM
+from actors.character.features import REFERENCE_OBS_WIDTH, FeatureExtractor, update_kinematics
+from actors.character.humanoid3d import HUMANOID3D, Humanoid
 from actors.envs.reference_obs import ReferenceObservation
-from actors.character.skeleton import NUM_LINKS
 
 FUTURE_STEPS = 5  # 004 Fig. 1: k = 5
-POSE_WIDTH = 1 + NUM_LINKS * (3 + 4)  # 106: height, link positions and rotations
+
+
+def pose_width(character=HUMANOID3D) -> int:
+    """Height, link positions and rotations (the observation's first entries)."""
+    return 1 + character.num_links * (3 + 4)
+
+
+def future_dim(steps: int = FUTURE_STEPS, character=HUMANOID3D) -> int:
+    return steps * (pose_width(character) + REFERENCE_OBS_WIDTH)
+
+
+POSE_WIDTH = pose_width(HUMANOID3D)  # 106
 STEP_WIDTH = POSE_WIDTH + REFERENCE_OBS_WIDTH  # 113
-FUTURE_DIM = FUTURE_STEPS * STEP_WIDTH  # 565
-
-
-def future_dim(steps: int = FUTURE_STEPS) -> int:
-    return steps * STEP_WIDTH
+FUTURE_DIM = future_dim(FUTURE_STEPS, HUMANOID3D)  # 565
 
 
 def reference_poses(track, humanoid: Humanoid) -> np.ndarray:
-    """(rows, 106) egocentric pose of every reference row (computed once per track)."""
+    """(rows, 106 for humanoid3d) egocentric pose of every reference row (computed once per track)."""
     scratch = mujoco.MjData(humanoid.model)
     features = FeatureExtractor(humanoid)
-    obs = np.zeros((1, observation_dim(0)))
-    poses = np.zeros((track.rows, POSE_WIDTH))
+    width = pose_width(humanoid.character)
+    obs = np.zeros((1, features.obs_dim))
+    poses = np.zeros((track.rows, width))
     for row in range(track.rows):
         scratch.qpos[:] = track.qpos[row]
         scratch.qvel[:] = track.qvel[row]
         update_kinematics(humanoid.model, scratch)
-        poses[row] = features.observation(scratch, 0.0, obs)[:POSE_WIDTH]
+        poses[row] = features.observation(scratch, 0.0, obs)[:width]
     return poses
 
 
@@ -60,20 +66,21 @@ class FutureReference:
         self.poses = reference_poses(track, humanoid)
         self.features = FeatureExtractor(humanoid)
         self.reference_obs = ReferenceObservation(track, 1, tuple(range(1, steps + 1)))
-        self._obs = np.zeros((1, observation_dim(steps)))
+        self._obs = np.zeros((1, self.features.obs_dim + REFERENCE_OBS_WIDTH * steps))
         self._row = np.zeros(1, dtype=np.int64)
-        self.width = future_dim(steps)
+        self.width = future_dim(steps, humanoid.character)
+        self.pose_width, self.proprio_dim = self.poses.shape[1], self.features.obs_dim - 1
 
     def __call__(self, data: mujoco.MjData, row: int, sync_offset: np.ndarray,
                  proprio_out: np.ndarray, future_out: np.ndarray) -> None:
         """Write s_t (196,) and the future features (steps * 113,) of the character in `data`
         (kinematics up to date) at table row `row`; `sync_offset` (1, 2): the env's root-sync offset."""
-        k = self.steps
+        k, pose, proprio = self.steps, self.pose_width, self.proprio_dim
         self._row[0] = row
         reference = self.reference_obs.gather(self._row, sync_offset)
         obs = self.features.observation(data, 0.0, self._obs, reference)
-        proprio_out[...] = obs[:PROPRIO_DIM]
-        future = future_out.reshape(k, STEP_WIDTH)
-        np.subtract(self.poses[self.reference_obs.rows[0]], obs[:POSE_WIDTH], out=future[:, :POSE_WIDTH])
-        future[:, POSE_WIDTH:POSE_WIDTH + 3] = obs[PROPRIO_DIM:PROPRIO_DIM + 3 * k].reshape(k, 3)
-        future[:, POSE_WIDTH + 3:] = obs[PROPRIO_DIM + 3 * k:PROPRIO_DIM + 7 * k].reshape(k, 4)
+        proprio_out[...] = obs[:proprio]
+        future = future_out.reshape(k, pose + REFERENCE_OBS_WIDTH)
+        np.subtract(self.poses[self.reference_obs.rows[0]], obs[:pose], out=future[:, :pose])
+        future[:, pose:pose + 3] = obs[proprio:proprio + 3 * k].reshape(k, 3)
+        future[:, pose + 3:] = obs[proprio + 3 * k:proprio + 7 * k].reshape(k, 4)

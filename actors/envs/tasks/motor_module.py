@@ -15,10 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from actors.character.features import OBS_DIM
 from learner.errors import SfvError
 
-PROPRIO_DIM = OBS_DIM - 1  # the observation without its phase: 196
 _LATENT_KEYS = ("latent_size", "latent_dim", "z_dim")
 
 

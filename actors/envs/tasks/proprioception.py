@@ -17,17 +17,25 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from actors.character.features import OBS_DIM, FeatureExtractor
+from actors.character.features import FeatureExtractor, obs_dim
+from actors.character.humanoid3d import HUMANOID3D
 
-PROPRIO_DIM = OBS_DIM - 1  # 196: the observation minus the phase (its last entry), reference roots excluded
+
+def proprio_dim(character=HUMANOID3D) -> int:
+    """The observation minus the phase (its last entry), reference roots excluded."""
+    return obs_dim(character) - 1
 
 
-def proprioception_from_observation(observation: np.ndarray) -> np.ndarray:
-    """s_t from an imitation observation (..., obs_dim) of any reference width: its first 196 entries (a view)."""
+PROPRIO_DIM = proprio_dim(HUMANOID3D)  # 196
+
+
+def proprioception_from_observation(observation: np.ndarray, character=HUMANOID3D) -> np.ndarray:
+    """s_t from an imitation observation (..., obs_dim) of any reference width: its first
+    `proprio_dim` entries (196 for humanoid3d; a view)."""
     observation = np.asarray(observation)
-    if observation.shape[-1] < OBS_DIM:
-        raise ValueError(f"proprioception: an observation has at least {OBS_DIM} entries, got {observation.shape[-1]}")
-    return observation[..., :PROPRIO_DIM]
+    if observation.shape[-1] < obs_dim(character):
+        raise ValueError(f"proprioception: an observation has at least {obs_dim(character)} entries, got {observation.shape[-1]}")
+    return observation[..., :proprio_dim(character)]
 
 
 class Proprioception:
@@ -35,14 +43,15 @@ class Proprioception:
 
     def __init__(self, features: FeatureExtractor):
         self.features = features
-        self._obs = np.zeros((1, OBS_DIM))
+        self._obs = np.zeros((1, features.obs_dim))
+        self.width = features.obs_dim - 1
 
     def __call__(self, data: mujoco.MjData, out: np.ndarray | None = None) -> np.ndarray:
         """(196,) float32 proprioception of `data`; into `out` when given."""
         obs = self.features.observation(data, 0.0, self._obs)
         if out is None:
-            return obs[:PROPRIO_DIM].astype(np.float32)
-        out[...] = obs[:PROPRIO_DIM]
+            return obs[:self.width].astype(np.float32)
+        out[...] = obs[:self.width]
         return out
 
 

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from actors.character.humanoid import Humanoid, PhysicsConfig
+from actors.character.humanoid import PhysicsConfig
+from actors.character.humanoid3d import Humanoid
 from actors.motion.formats.io import load_motion
 from actors.motion.reference_track import ReferenceTrack
 

@@ -15,19 +15,17 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from actors.character.features import OBS_DIM, FeatureExtractor
+from actors.character.features import FeatureExtractor
 from actors.character.humanoid3d import HUMANOID3D
 from actors.envs.simulator import MujocoSimulator
 from actors.envs.tasks.action_spaces import make_action_space
 from actors.envs.tasks.config import TaskEnvConfig
 from actors.envs.tasks.floor_fall import FloorFall
 from actors.envs.tasks.go_to import GoToTask
-from actors.envs.tasks.motor_module import PROPRIO_DIM
 from actors.envs.tasks.push_box import PushBoxTask
 from actors.envs.tasks.starts import ClipStarts
 
 TASK_CLASSES = {"go_to": GoToTask, "push_box": PushBoxTask}
-WALKER_NQ, WALKER_NV = HUMANOID3D.nq, HUMANOID3D.nv  # the character's own coordinates come first (props follow it)
 
 
 @dataclass
@@ -69,7 +67,8 @@ class VectorTaskEnv:
         self.fall = FloorFall(self.humanoid)
         self.substeps = config.substeps
         self.rng = np.random.default_rng(seed)
-        self.obs_dim = PROPRIO_DIM + self.task.obs_dim
+        self.proprio_dim = self.features.obs_dim - 1  # the observation without its phase (actors/envs/tasks/proprioception.py)
+        self.obs_dim = self.proprio_dim + self.task.obs_dim
         self.action_dim = self.action_space.action_dim
         self.obs = np.zeros((m, self.obs_dim), np.float32)
         self.final_obs = np.zeros_like(self.obs)
@@ -77,7 +76,7 @@ class VectorTaskEnv:
         self.terminated = np.zeros(m, bool)
         self.truncated = np.zeros(m, bool)
         self.reached = np.zeros(m, bool)
-        self._full = np.zeros((m, OBS_DIM))
+        self._full = np.zeros((m, self.features.obs_dim))
         self._task_obs = np.zeros((m, self.task.obs_dim))
         self._targets = np.zeros((m, self.model.nu))
         self._fell = np.zeros(m, bool)
@@ -115,7 +114,8 @@ class VectorTaskEnv:
     def _reset_env(self, i: int) -> None:
         data = self.sim.reset(i)
         qpos, qvel = self.starts.take(self.rng)
-        data.qpos[:WALKER_NQ], data.qvel[:WALKER_NV] = qpos, qvel
+        character = self.humanoid.character  # its own coordinates come first (props follow them)
+        data.qpos[:character.nq], data.qvel[:character.nv] = qpos, qvel
         self.sim.forward(i)
         yaw = float(np.arctan2(data.xmat[1, 3], data.xmat[1, 0]))
         self.task.reset(i, data.qpos[:2].copy(), yaw, self.rng, data)
@@ -133,7 +133,7 @@ class VectorTaskEnv:
     def step(self, actions: np.ndarray):
         """Step every env; returns views of (obs, rewards, terminated, truncated, final_obs)
         with `final_obs[i]` the true successor of a reset env (for bootstrapping)."""
-        targets = self.action_space.targets(actions, self.obs[:, :PROPRIO_DIM], self._targets)
+        targets = self.action_space.targets(actions, self.obs[:, :self.proprio_dim], self._targets)
         self.sim.step(targets, self._fell, self._diverged, self.fall, (self.features.capture, self.task.capture))
         root_xy, vel_xy, yaw = self._planar()
         rewards, reached = self.task.rewards(root_xy, vel_xy, yaw, self.rng)
@@ -161,9 +161,9 @@ class VectorTaskEnv:
     def _observe(self) -> None:
         f = self.features
         f.observations(0.0, self._full, f.heading())
-        self.obs[:, :PROPRIO_DIM] = self._full[:, :PROPRIO_DIM]
+        self.obs[:, :self.proprio_dim] = self._full[:, :self.proprio_dim]
         root_xy, vel_xy, yaw = self._planar()
-        self.obs[:, PROPRIO_DIM:] = self.task.features(root_xy, vel_xy, yaw, self._task_obs)
+        self.obs[:, self.proprio_dim:] = self.task.features(root_xy, vel_xy, yaw, self._task_obs)
 
     def _book(self, rewards: np.ndarray, reached: np.ndarray) -> None:
         self._ret += rewards

@@ -35,13 +35,13 @@ file (YAML or JSON) names source joint -> humanoid target, either flat or under 
 """
 from __future__ import annotations
 
-import json
 import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
 
 from learner.errors import SfvError
+from learner.yaml_io import read_yaml
 
 REQUIRED_TARGETS = (
     "root", "right_hip", "right_knee", "right_ankle", "left_hip", "left_knee", "left_ankle",
@@ -160,24 +160,7 @@ def preset_rig(name: str, joint_names: list[str], path: str | os.PathLike = "BVH
 
 
 def _read_map_document(map_path: Path) -> dict:
-    try:
-        text = map_path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SfvError(f"{map_path}: rig map not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SfvError(f"{map_path}: unreadable rig map ({type(exc).__name__})") from None
-    if map_path.suffix.lower() == ".json":
-        try:
-            doc = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise SfvError(f"{map_path}: not JSON ({exc.msg} at line {exc.lineno})") from None
-    else:
-        import yaml
-
-        try:
-            doc = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            raise SfvError(f"{map_path}: not YAML ({type(exc).__name__})") from None
+    doc = read_yaml(map_path, "rig map")  # YAML or JSON (YAML reads JSON)
     if isinstance(doc, dict) and isinstance(doc.get("joints"), dict):
         doc = doc["joints"]
     if not isinstance(doc, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in doc.items()):

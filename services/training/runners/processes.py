@@ -1,5 +1,5 @@
 """Rollout workers in plain spawned processes that talk over pipes: training without Ray
-(a GPU box without the Ray wheel, `bench/scaling.py`).
+(a GPU box without the Ray wheel, `services/bench/scripts/scaling.py`).
 
 Worker processes get one BLAS/OpenMP thread each, as Ray gives its 1-CPU actors. A worker
 that fails stops the run with its error (no restarts: the fault-tolerant path is Ray's).

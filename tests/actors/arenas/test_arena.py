@@ -5,7 +5,8 @@ from __future__ import annotations
 import mujoco
 
 from actors.arenas.flat import FlatFloor
-from actors.character.humanoid import Humanoid, PhysicsConfig
+from actors.character.humanoid import PhysicsConfig
+from actors.character.humanoid3d import Humanoid
 from actors.character.skeleton import LINKS
 
 

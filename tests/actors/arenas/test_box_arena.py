@@ -9,7 +9,8 @@ import pytest
 
 from actors.arenas.boxes import BoxArena
 from actors.character.features import update_kinematics
-from actors.character.humanoid import STANDING_ROOT_HEIGHT, Humanoid
+from actors.character.humanoid import STANDING_ROOT_HEIGHT
+from actors.character.humanoid3d import Humanoid
 from actors.arenas.scene import Box, Scene
 from actors.character.skeleton import LINK_NAMES, LINKS
 

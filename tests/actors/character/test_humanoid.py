@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from actors.character import quaternion as qn
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.character.skeleton import JOINT_NAMES, LINK_NAMES, NUM_ACTUATED_DOF, yup_to_zup
 
 PAPER_MASS_KG = 45.0

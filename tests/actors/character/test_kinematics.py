@@ -5,7 +5,7 @@ import pytest
 import torch
 
 from actors.character import quaternion as qn
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.character.kinematics import forward_kinematics, revolute_angle
 from actors.motion.reference_motion import MotionPose
 from actors.character.skeleton import HINGE_AXIS, JOINT_IS_SPHERICAL, NUM_JOINTS, NUM_LINKS, REVOLUTE_JOINTS, SPHERICAL_JOINTS

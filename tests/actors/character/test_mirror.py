@@ -8,10 +8,11 @@ import pytest
 from actors.character import quaternion as qn
 from actors.character.actions import ActionMapper
 from actors.character.features import FeatureExtractor, update_kinematics
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.character.kinematics import forward_kinematics
-from actors.character.mirror import (LINK_MIRROR, POLAR, QUAT, action_mirror, mirror_motion, mirrored_name, observation_mirror,
+from actors.character.skeleton import LINK_MIRROR
+from actors.character.mirror import (POLAR, QUAT, action_mirror, mirror_motion, mirrored_name, observation_mirror,
                            state_mirror)
 from actors.character.skeleton import JOINT_IS_SPHERICAL, LINKS, OFFSETS
 from learner.errors import SfvError

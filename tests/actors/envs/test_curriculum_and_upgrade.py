@@ -62,7 +62,7 @@ def test_an_old_run_directory_gets_the_settings_it_was_trained_with(walk_clip):
     config = TrainConfig.from_dict(old_run_config())
     env = ImitationEnv(walk_clip, config.env)
     assert env.action_space.shape == (36,) and not env.actions.residual
-    assert config.env.reward.form == "sfv_paper" and env.max_reward == pytest.approx(1.0)
+    assert config.env.sfv.reward.form == "sfv_paper" and env.max_reward == pytest.approx(1.0)
     assert env.obs_dim == 197 and env.state_dim == 75  # SFV's observation, qpos-space ASI states
     assert sorted(env.fall_detector.links) == [0, 1, 2]  # root, chest, neck: the old rule
     assert config.curriculum_start_s == 0.0 and config.asi_initial_std_scale == 1.0

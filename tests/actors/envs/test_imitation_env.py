@@ -9,8 +9,9 @@ import pytest
 from actors.character import quaternion as qn
 from actors.character.actions import ActionMapper
 from actors.character.features import update_kinematics
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.envs.modes.sfv.config import SfvConfig
 from actors.character.kinematics import forward_kinematics
 from actors.envs.modes.sfv.reward import RewardConfig
 from actors.character.skeleton import END_EFFECTOR_LINKS, JOINT_NAMES, LINK_NAMES, NUM_JOINTS
@@ -48,7 +49,7 @@ def env(walk, humanoid):
 @pytest.fixture(scope="module")
 def paper_env(walk, humanoid):
     """The paper's reward: sums over joints, four terms (the root term's weight is 0)."""
-    return ImitationEnv(walk, EnvConfig(horizon_s=2.0, reward=RewardConfig.sfv_paper()), humanoid)
+    return ImitationEnv(walk, EnvConfig(horizon_s=2.0, sfv=SfvConfig(reward=RewardConfig.sfv_paper())), humanoid)
 
 
 @pytest.fixture

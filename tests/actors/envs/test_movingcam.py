@@ -170,7 +170,7 @@ def test_root_free_motion_without_cues_is_a_one_line_error_naming_the_file(walk,
     path = save_motion(make_root_free(walk), tmp_path / "panned.npz")
     with pytest.raises(MotionFormatError, match=r"panned\.npz: movingcam mode needs the video's orientation_hint and contacts"):
         ImitationEnv(load_motion(str(path)), MOVINGCAM)
-    code = main(["train", "--motion", str(path), "--reward", "movingcam", "--serial", "--samples", "1024",
+    code = main(["train", "--motion", str(path), "--preset", "movingcam", "--serial", "--samples", "1024",
                  "--out", str(tmp_path / "run")])
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1 and "panned.npz" in err and "contacts" in err

@@ -1,4 +1,4 @@
-"""bench/movingcam_synthetic.py: the synthetic motion it writes and its path figures."""
+"""services/bench/scripts/movingcam_synthetic.py: the synthetic motion it writes and its path figures."""
 import numpy as np
 import pytest
 

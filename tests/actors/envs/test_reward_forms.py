@@ -16,8 +16,9 @@ import pytest
 
 from actors.character import quaternion as qn
 from actors.character.features import RewardFeatures, update_kinematics
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.envs.modes.sfv.config import SfvConfig
 from actors.envs.modes.sfv.reward import ImitationReward, RewardConfig
 from actors.character.skeleton import END_EFFECTOR_LINKS, JOINT_IS_SPHERICAL, JOINT_NAMES
 from tests.actors.envs.test_imitation_env import dof_index, qpos_index, terms_after  # noqa: F401  (helpers, not tests)
@@ -47,7 +48,7 @@ def walk(walk_clip):
 def envs(walk):
     humanoid = Humanoid()
     return {"deepmimic": ImitationEnv(walk, EnvConfig(horizon_s=2.0), humanoid),
-            "sfv_paper": ImitationEnv(walk, EnvConfig(horizon_s=2.0, reward=RewardConfig.sfv_paper()), humanoid)}
+            "sfv_paper": ImitationEnv(walk, EnvConfig(horizon_s=2.0, sfv=SfvConfig(reward=RewardConfig.sfv_paper())), humanoid)}
 
 
 

@@ -144,9 +144,10 @@ def test_vector_env_syncs_each_env_like_the_single_env(clips, humanoid):
 
 
 def test_the_papers_com_position_term_follows_the_synced_reference(clips, humanoid):
+    from actors.envs.modes.sfv.config import SfvConfig
     from actors.envs.modes.sfv.reward import RewardConfig
 
-    env = ImitationEnv(clips["walk"], EnvConfig(horizon_s=2.0, reward=RewardConfig.sfv_paper()), humanoid)
+    env = ImitationEnv(clips["walk"], EnvConfig(horizon_s=2.0, sfv=SfvConfig(reward=RewardConfig.sfv_paper())), humanoid)
     cycle = env.track.start_steps
     row, _, terms, _, _ = play(env, cycle + 5)[-1]
     offset = np.append(env.root_sync.offset[0], 0.0)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from actors.character.features import observation_dim
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.envs.initial_states import BufferedStarts, ReferenceStarts
 from actors.motion.formats.io import load_motion

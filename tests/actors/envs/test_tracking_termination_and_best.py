@@ -1,4 +1,4 @@
-"""Early termination on tracking deviation (`EnvConfig.tracking_termination_m`) and the best
+"""Early termination on tracking deviation (`EnvConfig.sfv.tracking_termination_m`) and the best
 checkpoint (`best.pt`, what eval / render / export read by default)."""
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import pytest
 
 from actors.character.features import RewardFeatures
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.envs.modes.sfv.config import SfvConfig
 from actors.envs.initial_states import BufferedStarts, ReferenceStarts
 from actors.envs.modes.sfv.tracking_termination import TrackingTermination
 from actors.character.skeleton import LINK_NAMES
@@ -53,7 +54,7 @@ def pushed_episode(env: ImitationEnv, shift_m: float) -> tuple[float, bool]:
 
 
 def test_a_character_far_from_the_reference_ends_the_episode_as_a_fall(walk_clip, shared_humanoid):
-    env = ImitationEnv(walk_clip, EnvConfig(tracking_termination_m=0.5), shared_humanoid)
+    env = ImitationEnv(walk_clip, EnvConfig(sfv=SfvConfig(tracking_termination_m=0.5)), shared_humanoid)
     assert pushed_episode(env, 0.8) == (0.0, True)
     reward, terminated = pushed_episode(env, 0.2)
     assert not terminated and reward > 0.3
@@ -63,7 +64,7 @@ def test_a_character_far_from_the_reference_ends_the_episode_as_a_fall(walk_clip
 
 def test_the_vector_env_applies_it_per_env(walk_clip):
     starts = BufferedStarts(ReferenceStarts("rsi", np.random.default_rng(1)), batch=4)
-    venv = VectorImitationEnv(walk_clip, EnvConfig(tracking_termination_m=0.5), num_envs=2, starts=starts, seed=1)
+    venv = VectorImitationEnv(walk_clip, EnvConfig(sfv=SfvConfig(tracking_termination_m=0.5)), num_envs=2, starts=starts, seed=1)
     venv.reset()
     venv.envs[1].data.qpos[0] += 0.8
     _, rewards, terminated, _, _ = venv.step(np.zeros((2, venv.action_dim)))
@@ -96,7 +97,7 @@ class Frozen:
 
 
 def test_evaluation_ignores_it(walk_clip, shared_humanoid):
-    strict = ImitationEnv(walk_clip, EnvConfig(tracking_termination_m=0.01), shared_humanoid)
+    strict = ImitationEnv(walk_clip, EnvConfig(sfv=SfvConfig(tracking_termination_m=0.01)), shared_humanoid)
     result = evaluate_policy(Frozen(), strict, episodes=2)
     plain = evaluate_policy(Frozen(), ImitationEnv(walk_clip, EnvConfig(), shared_humanoid), episodes=2)
     assert result["episode_length"] == plain["episode_length"] > 5  # 1 cm would end every episode at once

@@ -3,7 +3,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.envs.imitation_env import EnvConfig
 from actors.envs.initial_states import BufferedStarts, InitialStates, ReferenceStarts
 from actors.character.state import StateLayout

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from actors.character import quaternion as qn
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.motion.reference_motion import MotionFormatError, ReferenceMotion
 from actors.motion.formats.io import DEEPMIMIC_CLIPS, DEEPMIMIC_COLUMNS, load_motion, save_motion
 from actors.character.skeleton import JOINT_IS_SPHERICAL, NUM_JOINTS, yup_to_zup

@@ -10,8 +10,9 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.envs.modes.sfv.config import SfvConfig
 from actors.motion.reference_motion import MotionFormatError, ReferenceMotion
 from actors.motion.formats.io import DEEPMIMIC_COLUMNS, load_motion
 from actors.envs.modes.sfv.reward import RewardConfig
@@ -124,7 +125,7 @@ HUMANOID = Humanoid()
 def test_valid_motion_runs_in_env_with_finite_observations(motion, seed, init, actions, reward):
     parameterisation, residual = actions  # residual targets are exp-map offsets only
     config = EnvConfig(horizon_s=0.5, init=init, action_parameterisation=parameterisation, residual_action_scale=residual,
-                       reward=reward)
+                       sfv=SfvConfig(reward=reward))
     env = ImitationEnv(motion, config, HUMANOID)
     obs, info = env.reset(seed=seed)
     assert np.isfinite(obs).all() and 0.0 <= info["phase"] <= 1.0

@@ -1,4 +1,4 @@
-"""bench/compare_runs.py: runs side by side (config differences, curves at marks, evaluations, fall causes)."""
+"""services/bench/scripts/compare_runs.py: runs side by side (config differences, curves at marks, evaluations, fall causes)."""
 from __future__ import annotations
 
 import json

@@ -1,4 +1,4 @@
-"""bench/pd_tracking.py: pure PD tracking per clip, lead and start spread."""
+"""services/bench/scripts/pd_tracking.py: pure PD tracking per clip, lead and start spread."""
 from __future__ import annotations
 
 import json

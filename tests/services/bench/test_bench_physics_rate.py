@@ -1,4 +1,4 @@
-"""bench/physics_rate.py: one policy, strict evaluations at several physics rates."""
+"""services/bench/scripts/physics_rate.py: one policy, strict evaluations at several physics rates."""
 from __future__ import annotations
 
 import json

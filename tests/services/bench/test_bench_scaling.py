@@ -1,4 +1,4 @@
-"""bench/scaling.py's worker counts, and the real training loop over process workers (no Ray)."""
+"""services/bench/scripts/scaling.py's worker counts, and the real training loop over process workers (no Ray)."""
 from __future__ import annotations
 
 import pytest

@@ -1,4 +1,4 @@
-"""bench/golden.py's digests: a serial run is reproducible to the bit (so a restructuring can
+"""services/bench/scripts/golden.py's digests: a serial run is reproducible to the bit (so a restructuring can
 be checked against them), and they do change when the behaviour does."""
 from __future__ import annotations
 

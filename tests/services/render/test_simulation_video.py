@@ -5,7 +5,7 @@ from __future__ import annotations
 import imageio.v2 as imageio
 import numpy as np
 
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.motion.formats.io import load_motion
 from actors.character.state import StateLayout
 from services.render.simulation_video import render_simulation_video

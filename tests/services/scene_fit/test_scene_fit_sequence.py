@@ -70,7 +70,7 @@ def test_final_rollout_chains_the_windows_over_the_clip(trained):
 
 
 def test_outputs_are_written_whole(trained, tmp_path):
-    from actors.character.humanoid import Humanoid
+    from actors.character.humanoid3d import Humanoid
     from actors.character.state import StateLayout
     from services.scene_fit.outputs import write_outputs
 

@@ -45,12 +45,12 @@ def test_long_and_short_flags_reach_nested_fields(tmp_path):
     config = train.build_config(parse("--out", str(tmp_path), "--env.physics.friction", "0.7", "--physics-hz", "600",
                                       "--ppo.value-lr", "3e-4", "--hidden", "64,32", "--no-env.zero-reward-on-fall",
                                       "--reference-obs", "none", "--ppo.target-kl", "none", "--reward", "sfv_paper",
-                                      "--env.reward.com-weight", "0.3"))
+                                      "--env.sfv.reward.com-weight", "0.3"))
     assert (config.env.physics.friction, config.env.physics.physics_hz) == (0.7, 600.0)
     assert config.ppo.value_lr == 3e-4 and config.ppo.policy_hidden == config.ppo.value_hidden == (64, 32)
     assert config.env.zero_reward_on_fall is False and config.env.reference_obs_steps == () and config.ppo.target_kl is None
     # The preset sets the paper's weights; a field given explicitly wins over the preset.
-    assert (config.env.reward.form, config.env.reward.pose_weight, config.env.reward.com_weight) == ("sfv_paper", 0.65, 0.3)
+    assert (config.env.sfv.reward.form, config.env.sfv.reward.pose_weight, config.env.sfv.reward.com_weight) == ("sfv_paper", 0.65, 0.3)
 
 
 def test_print_config_round_trips_through_a_config_file_and_flags_win_over_it(tmp_path, capsys):
@@ -122,7 +122,7 @@ def test_resume_keeps_the_saved_config_and_lets_safe_settings_change(tmp_path):
     (["--hidden", "128,128"], "--hidden"),
     (["--physics-hz", "1200"], "--physics-hz"),
     (["--action", "axis_angle", "--residual-scale", "0"], "--action"),
-    (["--env.reward.pose-scale", "3"], "--env.reward.pose-scale"),
+    (["--env.sfv.reward.pose-scale", "3"], "--env.sfv.reward.pose-scale"),
     (["--motion", "deepmimic:run"], "--motion"),
 ])
 def test_resume_refuses_unsafe_changes_naming_the_flag(tmp_path, capsys, flags, named):

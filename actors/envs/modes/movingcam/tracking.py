@@ -34,11 +34,10 @@ import numpy as np
 
 from actors.character import quaternion as qn
 from actors.envs.modes.movingcam.clip_cues import NECK_LINK
-from actors.character.features import OBS_DIM, RewardFeatures
+from actors.character.features import RewardFeatures, obs_dim
 from actors.envs.modes.movingcam.targets import MovingcamTargets
 from actors.envs.modes.movingcam.termination import MovingcamTermination, MovingcamTerminationConfig
 from actors.envs.modes.movingcam.reward import MovingcamReward, MovingcamRewardConfig
-from actors.character.skeleton import LINKS
 
 ENV_MODES = ("sfv", "movingcam")
 _OBSTACLE, _WALKER = 1, 2  # geom kinds for the collision rule (walker: links other than the flagged end effectors)
@@ -88,7 +87,7 @@ class MovingcamTracking:
         # Walker geoms: which flagged end effector each belongs to, and which are other links.
         self._geom_contact = np.zeros((model.ngeom, e), dtype=bool)
         self._geom_body = np.zeros(model.ngeom, dtype=bool)
-        for link in range(len(LINKS)):
+        for link in range(humanoid.character.num_links):
             body = humanoid.body_ids[link]
             geoms = slice(model.body_geomadr[body], model.body_geomadr[body] + model.body_geomnum[body])
             flagged = np.flatnonzero(self.targets.contact_links == link)
@@ -118,7 +117,8 @@ class MovingcamTracking:
         self._horizontal = np.zeros(batch)
         self._ref_table = reference_observation_table(track, reference_obs_steps)
         self._ref_rows = np.zeros((batch, self._ref_table.shape[1]))
-        self._ref_cols = slice(OBS_DIM - 1, OBS_DIM - 1 + self._ref_table.shape[1])
+        ref_start = obs_dim(humanoid.character) - 1  # the reference slots sit before the phase
+        self._ref_cols = slice(ref_start, ref_start + self._ref_table.shape[1])
 
     def set_obstacles(self, geom_ids: tuple[int, ...]) -> None:
         """The scene's obstacle geoms (for the collision rule); () for a flat floor. Set by the env from its

@@ -1,7 +1,7 @@
 """The sfv mode: DeepMimic/SFV imitation of the whole reference, root path included.
 
 Reward: DeepMimic's imitation reward (`actors/envs/modes/sfv/reward.py`). Termination: the
-tracking deviation (`tracking_termination.py`, `EnvConfig.tracking_termination_m`; 0: off) on
+tracking deviation (`tracking_termination.py`, `EnvConfig.sfv.tracking_termination_m`; 0: off) on
 top of the core's fall rule. Observation: the core's features with the reference roots
 ahead (`EnvConfig.reference_obs_steps`, written by the core's `ReferenceObservation`, since
 the mode tracks the root); nothing else."""
@@ -20,15 +20,15 @@ class SfvMode:
     captures = ()
 
     def __init__(self, config, track, humanoid, batch: int):
-        self.reward = ImitationReward(config.reward, humanoid.joint_dof_adr)
-        self.max_reward = config.reward.max_reward
-        self.tracking_termination = TrackingTermination(config.tracking_termination_m, batch)
+        self.reward = ImitationReward(config.sfv.reward, humanoid)
+        self.max_reward = config.sfv.reward.max_reward
+        self.tracking_termination = TrackingTermination(config.sfv.tracking_termination_m, batch)
         self.terminated = np.zeros(batch, dtype=bool)
 
     @staticmethod
     def step_reward_bound(config) -> float:
         """The most one control step earns with `config` (before the env is built)."""
-        return config.reward.max_reward
+        return config.sfv.reward.max_reward
 
     def rewards(self, rows, features, sim, ref, terms, check_termination):
         rewards = self.reward.batch(sim, ref, terms)

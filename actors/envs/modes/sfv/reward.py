@@ -35,11 +35,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from actors.character.features import HINGE_START, NUM_REWARD_QUATS, RewardFeatures
-from actors.character.skeleton import DEEPMIMIC_JOINT_WEIGHTS, JOINT_IS_SPHERICAL, JOINT_NAMES
+from actors.character.features import RewardFeatures, RewardShape
 
 REWARD_FORMS = ("deepmimic", "sfv_paper")
-_NV = 6 + 3 * int(JOINT_IS_SPHERICAL.sum()) + int((~JOINT_IS_SPHERICAL).sum())  # the humanoid's qvel size
 TERM_NAMES = ("pose", "velocity", "end_effector", "root", "com")
 NUM_TERMS = len(TERM_NAMES)
 
@@ -80,21 +78,25 @@ class RewardConfig:
         return np.array([self.pose_scale, self.velocity_scale, self.end_effector_scale, self.root_scale, self.com_scale])
 
 
-def error_matrices(form: str, layout: RewardFeatures, joint_dof_adr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(tail (D, 5), quaternion (9, 5)) matrices that turn squared differences into the five
-    terms' errors. `layout` is any RewardFeatures (only its column ranges are read);
-    `joint_dof_adr` (12,) is each joint's first qvel index (MuJoCo orders qvel by the body
-    tree, hinges between ball joints, not by skeleton order)."""
+def error_matrices(form: str, layout: RewardFeatures, body) -> tuple[np.ndarray, np.ndarray]:
+    """(tail (D, 5), quaternion (quats, 5)) matrices that turn squared differences into the
+    five terms' errors. `layout` is any RewardFeatures of the body (only its column ranges are
+    read); `body` is the built character: its joints, their kinds and reward weights, and
+    each joint's first qvel index `joint_dof_adr` (MuJoCo orders qvel by the body tree,
+    hinges between ball joints, not by skeleton order)."""
+    character = body.character
+    names, spherical = character.joint_names, character.joint_is_spherical
     cols = layout.tail_columns
     tail = np.zeros((layout.tail.shape[1], NUM_TERMS))
-    quat = np.zeros((NUM_REWARD_QUATS, NUM_TERMS))
+    quat = np.zeros((layout.shape.quats, NUM_TERMS))
+    weights = character.reward_joint_weights
     if form == "deepmimic":
-        total = sum(DEEPMIMIC_JOINT_WEIGHTS.values())  # the wrists' zeros add nothing
-        w = {name: v / total for name, v in DEEPMIMIC_JOINT_WEIGHTS.items()}
+        total = sum(weights.values())  # humanoid3d: the wrists' zeros add nothing
+        w = {name: v / total for name, v in weights.items()}
     else:
-        w = dict.fromkeys(DEEPMIMIC_JOINT_WEIGHTS, 1.0)
-    ball = [n for n, s in zip(JOINT_NAMES, JOINT_IS_SPHERICAL) if s]
-    hinge = [n for n, s in zip(JOINT_NAMES, JOINT_IS_SPHERICAL) if not s]
+        w = dict.fromkeys(weights, 1.0)
+    ball = [n for n, s in zip(names, spherical) if s]
+    hinge = [n for n, s in zip(names, spherical) if not s]
     # Pose: root (world) and ball joints by their quaternion angle, hinges by angle gap.
     quat[:, 0] = [w["root"]] + [w[n] for n in ball]
     h0 = cols["hinges"][0]
@@ -102,12 +104,12 @@ def error_matrices(form: str, layout: RewardFeatures, joint_dof_adr: np.ndarray)
     # Velocity: qvel[3:] = root angular velocity (3), then each joint's dofs at its address.
     a0 = cols["ang_vel"][0]
     tail[a0:a0 + 3, 1] = w["root"]
-    for name, spherical, adr in zip(JOINT_NAMES, JOINT_IS_SPHERICAL, np.asarray(joint_dof_adr)):
+    for name, ball_joint, adr in zip(names, spherical, np.asarray(body.joint_dof_adr)):
         first = a0 + int(adr) - 3
-        tail[first:first + (3 if spherical else 1), 1] = w[name]
+        tail[first:first + (3 if ball_joint else 1), 1] = w[name]
     e0, e1 = cols["end_effectors"]
     if form == "deepmimic":
-        tail[e0:e1, 2] = 1.0 / 4.0  # mean over the four end effectors
+        tail[e0:e1, 2] = 1.0 / layout.shape.end_effectors  # mean over the end effectors
         r0, r1 = cols["root_pos"]
         tail[r0:r1, 3] = 1.0
         quat[0, 3] = 0.1
@@ -123,25 +125,28 @@ def error_matrices(form: str, layout: RewardFeatures, joint_dof_adr: np.ndarray)
     return tail, quat
 
 
-_DOF_ADR: list = []
+_DEFAULT_BODY: list = []
 
 
-def _default_dof_adr(humanoid_cls) -> np.ndarray:
-    if not _DOF_ADR:
-        _DOF_ADR.append(humanoid_cls().joint_dof_adr.copy())
-    return _DOF_ADR[0]
+def _default_body():
+    """humanoid3d, built once (its joint addresses are fixed by its skeleton)."""
+    if not _DEFAULT_BODY:
+        from actors.character.humanoid3d import HUMANOID3D
+
+        _DEFAULT_BODY.append(HUMANOID3D.build())
+    return _DEFAULT_BODY[0]
 
 
 class ImitationReward:
-    def __init__(self, config: RewardConfig = RewardConfig(), joint_dof_adr: np.ndarray | None = None):
+    def __init__(self, config: RewardConfig = RewardConfig(), body=None):
+        """`body`: the built character the env steps (humanoid3d when not given)."""
         self.config = config
         self._weights = config.weights
         self._scales = -config.scales
-        if joint_dof_adr is None:  # the humanoid's (built once: the model is fixed by the skeleton)
-            from actors.character.humanoid import Humanoid
-
-            joint_dof_adr = _default_dof_adr(Humanoid)
-        self._tail_matrix, self._quat_matrix = error_matrices(config.form, RewardFeatures.zeros(_NV), joint_dof_adr)
+        body = _default_body() if body is None else body
+        self._shape = RewardShape.of(body.character)
+        layout = RewardFeatures.zeros(body.character.nv, 1, self._shape)
+        self._tail_matrix, self._quat_matrix = error_matrices(config.form, layout, body)
         self._scratch: dict[tuple[int, int], tuple] = {}  # per (B, D): work buffers
 
     def batch(self, sim: RewardFeatures, ref: RewardFeatures, terms: np.ndarray) -> np.ndarray:
@@ -166,9 +171,10 @@ class ImitationReward:
     def _buffers(self, shape: tuple[int, int]) -> tuple:
         if shape not in self._scratch:
             b, width = shape
-            if width - HINGE_START != self._tail_matrix.shape[0]:
-                raise ValueError(f"reward features have {width} columns, the reward expects {self._tail_matrix.shape[0] + HINGE_START}")
-            self._scratch[shape] = (np.zeros((b, width - HINGE_START)), np.zeros((b, NUM_REWARD_QUATS)),
+            start = self._shape.hinge_start
+            if width - start != self._tail_matrix.shape[0]:
+                raise ValueError(f"reward features have {width} columns, the reward expects {self._tail_matrix.shape[0] + start}")
+            self._scratch[shape] = (np.zeros((b, width - start)), np.zeros((b, self._shape.quats)),
                                     np.zeros((b, NUM_TERMS)), np.zeros(b))
         return self._scratch[shape]
 

@@ -11,7 +11,7 @@ limbs), and ending there turns "drifting away" into the same zero-return signal 
 Measured here as the largest of: each end effector's distance to the reference's (both as
 DeepMimic's reward sees them, offsets from the root in the heading frame with their height
 above the ground) and the root's distance to the reference root (world, after the per-cycle
-root sync). `EnvConfig.tracking_termination_m` is the threshold; 0 turns it off. Evaluation
+root sync). `EnvConfig.sfv.tracking_termination_m` is the threshold; 0 turns it off. Evaluation
 never uses it: strict falls are what `sfv eval` judges.
 """
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Task policies on the motor module against from-scratch joint-space policies (issue 16 item 5).
 
-    python bench/npmp_tasks.py --module MODULE --runs-dir DIR [--tasks go_to,push_box]
+    python services/bench/scripts/npmp_tasks.py --module MODULE --runs-dir DIR [--tasks go_to,push_box]
                                [--actions latent,joint] [--samples 750000] [--workers 2]
 
 For each task x action space: trains a run in DIR/<task>_<action> with the same sample budget
@@ -19,9 +19,9 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without installing
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))  # run from a checkout without installing
 
-RESULTS = Path(__file__).resolve().parent / "results"
+RESULTS = Path(__file__).resolve().parents[3] / "bench" / "results"
 THRESHOLDS = (0.25, 0.5)
 WINDOW = 5
 
@@ -55,7 +55,7 @@ def train(task: str, action: str, args, run_dir: Path) -> float:
 
 
 def measure(task: str, action: str, args) -> dict:
-    from services.commands.task import load_task_run
+    from services.tasks.run_dir import load_task_run
     from services.tasks.evaluation import evaluate_task
     from services.tasks.video import render_task
     from services.training.run_dir import read_metrics

@@ -1,6 +1,6 @@
 """What the motor module's decoder does on its own prior's latents (NPMP, 004 §3.3-3.4).
 
-    python bench/npmp_prior_samples.py --module MODULE [--episodes 32] [--result bench/results/npmp/prior_samples.json]
+    python services/bench/scripts/npmp_prior_samples.py --module MODULE [--episodes 32] [--result bench/results/npmp/prior_samples.json]
 
 The AR(1) prior p(z_t | z_t-1) = N(alpha z_t-1, (1 - alpha^2) sigma^2) is what a task policy's
 exploration starts from: the decoder driven by samples of it should move like the experts,
@@ -23,11 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without installing
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))  # run from a checkout without installing
 
 from learner.motor_module import prior_sample  # noqa: E402  the module's own AR(1) step (numpy arrays too)
 
-RESULT = Path(__file__).resolve().parent / "results" / "npmp" / "prior_samples.json"
+RESULT = Path(__file__).resolve().parents[3] / "bench" / "results" / "npmp" / "prior_samples.json"
 LATENT_SCALE = 4.0  # the task action box maps to +-4 sigma, so prior draws are (almost) never clipped
 
 

@@ -1,6 +1,6 @@
 """Golden rollout and PPO update: digests that a behaviour-preserving change must keep.
 
-`python bench/golden.py --out FILE.json` trains two tiny serial runs (RSI without a server,
+`python services/bench/scripts/golden.py --out FILE.json` trains two tiny serial runs (RSI without a server,
 ASI through the embedded gRPC server), 2 PPO iterations each, and writes the SHA-256 of the
 rollout arrays of one worker's first `sample` call and of the final policy weights, plus a
 few summary numbers. `--check FILE.json` recomputes them and exits 1 naming what changed.

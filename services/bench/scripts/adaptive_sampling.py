@@ -1,6 +1,6 @@
 """Adaptive tuple sampling (paper 002 §5.2, eq. 13) against training on every tuple, on a long clip.
 
-    python bench/adaptive_sampling.py [--motion deepmimic:walk] [--samples 700000] [--eval-every 50000]
+    python services/bench/scripts/adaptive_sampling.py [--motion deepmimic:walk] [--samples 700000] [--eval-every 50000]
         [--runs-dir runs/adaptive_sampling] [--out bench/results/adaptive_sampling.json]
 
 Two ordinary training runs (`services.training.driver.Trainer`, what `sfv train` runs), identical
@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without installing
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))  # run from a checkout without installing
 
 ARMS = ("all", "adaptive")
 THRESHOLDS = (0.05, 0.06, 0.08, 0.1, 0.2, 0.5)  # an untrained policy scores ~0.04 on the 20 s horizon

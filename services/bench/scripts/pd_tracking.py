@@ -8,7 +8,7 @@ Reported per clip and setting: control steps survived (early termination as in t
 most --steps), the reward terms averaged over the first --terms-steps steps, and the root's
 heading error after --heading-steps steps (the turn PD control alone does not follow).
 
-    python bench/pd_tracking.py --clips walk,dance_a,spinkick,backflip --leads 0,2 --asi-stds 0,0.1,0.25 \\
+    python services/bench/scripts/pd_tracking.py --clips walk,dance_a,spinkick,backflip --leads 0,2 --asi-stds 0,0.1,0.25 \\
         --out bench/results/pd_tracking.json
 """
 from __future__ import annotations
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
 
 from actors.character import quaternion as qn  # noqa: E402
 from actors.envs.imitation_env import EnvConfig, ImitationEnv  # noqa: E402

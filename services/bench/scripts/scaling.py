@@ -1,6 +1,6 @@
 """Training throughput from 1 to N rollout workers, without Ray (for machines without it).
 
-    python bench/scaling.py --max-workers 16 --out scaling.json [--device cuda] [--quick]
+    python services/bench/scripts/scaling.py --max-workers 16 --out scaling.json [--device cuda] [--quick]
 
 Each worker is a `RolloutWorker` in its own process (multiprocessing, spawn), driven by the
 real training loop (`services.training.driver.Trainer`: PPO learner, embedded ASI server, metrics,
@@ -24,7 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without installing
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))  # run from a checkout without installing
 
 from services.bench.env_suite import env_config_for  # noqa: E402
 from services.bench.measure import Summary, rate_for, ratio  # noqa: E402
@@ -108,7 +108,7 @@ def main(argv=None) -> int:
         args.iterations = saved_iterations
         names = list(variants)
         runs: dict[str, list[float]] = {name: [] for name in names}
-        report = {"command": "python bench/scaling.py " + " ".join(sys.argv[1:] if argv is None else argv),
+        report = {"command": "python services/bench/scripts/scaling.py " + " ".join(sys.argv[1:] if argv is None else argv),
                   "machine": machine(), "load_average_start": list(os.getloadavg()), "suites": {}}
         started = time.perf_counter()
         for r in range(args.repeats):

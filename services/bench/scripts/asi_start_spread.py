@@ -8,7 +8,7 @@ of the reference, which needs no training; or a run's policy with --run), and re
 mean reward per step, the fraction of starts that fall (strict rule) and the mean joint
 rotation offset of the start from the reference, against RSI (exact reference states).
 
-    python bench/asi_start_spread.py --motion deepmimic:walk --out bench/results/asi_start_spread.json
+    python services/bench/scripts/asi_start_spread.py --motion deepmimic:walk --out bench/results/asi_start_spread.json
 """
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
 
 from actors.envs.falls import FallDetector  # noqa: E402
 from actors.envs.imitation_env import EnvConfig, ImitationEnv  # noqa: E402

@@ -1,6 +1,6 @@
 """Training runs side by side: what differs in their configs, and how each learned, per sample.
 
-    python bench/compare_runs.py RUN [RUN ...] --marks 250k,500k,1M --out bench/results/NAME.json [--png NAME.png]
+    python services/bench/scripts/compare_runs.py RUN [RUN ...] --marks 250k,500k,1M --out bench/results/NAME.json [--png NAME.png]
 
 For one-change-at-a-time comparisons (a lever on or off, same clip, same budget). Per run: the
 settings that differ from the first run's (dotted config paths), the training curve at each mark
@@ -15,7 +15,7 @@ import argparse
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
 
 from learner.errors import SfvError  # noqa: E402
 from services.training.run_dir import CONFIG_FILE, METRICS_FILE, read_metrics, read_run_config, write_json_atomic  # noqa: E402

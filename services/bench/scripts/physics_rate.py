@@ -6,7 +6,7 @@ normalised return when the physics is finer (300 Hz, 1.2 kHz, the paper's Bullet
 script loads a run's best policy and runs `sfv eval`'s strict evaluation with the run's env
 settings at each `--hz`, one line and one JSON row per rate.
 
-    python bench/physics_rate.py runs/walk_150 --hz 150,300,1200 --out bench/results/physics_rate_walk.json
+    python services/bench/scripts/physics_rate.py runs/walk_150 --hz 150,300,1200 --out bench/results/physics_rate_walk.json
 """
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
 
 from actors.motion.formats.io import load_motion  # noqa: E402
 from learner.errors import SfvError  # noqa: E402

@@ -8,7 +8,7 @@ error), the body-orientation hint and the foot contacts (here from the clip,
 1. prepare: the clip's root path removed (`services/reconstruction/root_free.make_root_free`),
    hint and contacts from the clean clip, Gaussian noise of `--noise-rad` on every joint
    rotation (a random rotation vector per joint and frame), written as a motion .npz.
-2. train (run it under the CPU lock): `sfv train --motion THAT.npz --reward movingcam ...`.
+2. train (run it under the CPU lock): `sfv train --motion THAT.npz --preset movingcam ...`.
 3. report: the trained policy rolled out deterministically from the clip's first frame for
    the horizon (20 s), its simulated root path against the clip's *true* one (the clean clip,
    looped with its cycle offset), both from the same start:
@@ -22,9 +22,9 @@ error), the body-orientation hint and the foot contacts (here from the clip,
    and contact accuracy (fraction of steps x feet whose simulated contact equals the flag).
    Writes `bench/results/movingcam_synthetic.json`.
 
-    python bench/movingcam_synthetic.py prepare --out /tmp/mc
-    sfv train --motion /tmp/mc/synthetic.npz --reward movingcam --samples 1500000 --torch-threads 1 --out /tmp/mc/run
-    python bench/movingcam_synthetic.py report --out /tmp/mc
+    python services/bench/scripts/movingcam_synthetic.py prepare --out /tmp/mc
+    sfv train --motion /tmp/mc/synthetic.npz --preset movingcam --samples 1500000 --torch-threads 1 --out /tmp/mc/run
+    python services/bench/scripts/movingcam_synthetic.py report --out /tmp/mc
 """
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[3]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 

@@ -1,8 +1,8 @@
 """The box check of issue 15: a policy trained on a box scene, scored against the box it was trained for.
 
-    python bench/box_scene_check.py RUN --out bench/results/scene_box_jump.json
+    python services/bench/scripts/box_scene_check.py RUN --out bench/results/scene_box_jump.json
 
-RUN is a `sfv train` run on `bench/scenes/box_jump.npz` with `--scene` (see `bench/box_clip.py`;
+RUN is a `sfv train` run on `bench/scenes/box_jump.npz` with `--scene` (see `services/bench/scripts/box_clip.py`;
 the README's "Boxes in the scene" section has the command). Writes one JSON object:
 
 - `training`: the run's evaluation figures (eval NR by the env's reward, imitation plus 002's
@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
 
 FIGURES = ("eval/normalized_return", "eval/fall_rate", "eval/episode_seconds")
 

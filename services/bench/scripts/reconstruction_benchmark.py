@@ -1,6 +1,6 @@
 """Accuracy of video -> motion reconstruction against multi-view ground truth.
 
-    python bench/reconstruction_benchmark.py --out reconstruction.json [--iterations N] [--track-cache DIR]
+    python services/bench/scripts/reconstruction_benchmark.py --out reconstruction.json [--iterations N] [--track-cache DIR]
 
 For each of the 4 cameras of ../shared/data/video/pose2sim_balancing (one person, 100
 frames at 60 fps), BlazePose runs on that camera's video alone and the motion is
@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without installing
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))  # run from a checkout without installing
 
 from learner.atomic_io import atomic_write_json  # noqa: E402
 from services.pose import PoseTrack, estimate_video  # noqa: E402
@@ -35,7 +35,7 @@ from services.reconstruction.keypoints import observe  # noqa: E402
 from services.reconstruction.label_flips import undo_label_flips  # noqa: E402
 from services.reconstruction.metrics import acceleration_error, centre_on, evaluate  # noqa: E402
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[3]
 CLIP_DIR = Path("data") / "video" / "pose2sim_balancing"
 TRC_FILES = {"triangulated": "S00_P00_T01_BalancingTrial_0-100.trc",
              "filtered": "S00_P00_T01_BalancingTrial_0-100_filt_butterworth.trc"}

@@ -1,11 +1,11 @@
 """Issue 15's box check: fit a box's position and height from a clip with a known box (002 §5.3),
 and "Table 2 of 002 in spirit" (the initial-guess scene against the fitted one).
 
-    python bench/scene_fit.py [--motion bench/scenes/box_jump.npz] [--scene bench/scenes/box_jump.yaml]
+    python services/bench/scripts/scene_fit.py [--motion bench/scenes/box_jump.npz] [--scene bench/scenes/box_jump.yaml]
                               [--samples 1000000] [--workers 2] [--envs-per-worker 16] [--out-dir runs/scene_fit_box]
                               [--torch-threads 1] [--gamma G] [--result bench/results/scene_fit.json]
 
-The clip is the scene engineer's synthetic box jump (`bench/box_clip.py`: DeepMimic's jump
+The clip is the scene engineer's synthetic box jump (`services/bench/scripts/box_clip.py`: DeepMimic's jump
 landing on a box, the true box in its extras `scene_truth`); the scene file is the first guess
 (0.1 m too far, 0.1 m too high, 002's +-0.3 m domains). The windows (one here: a single box)
 train in 002's movingcam tracking mode with the box drawn per episode in its domain, the
@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without installing
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))  # run from a checkout without installing
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parents[3] / "bench"  # its scenes and results
 
 
 def _objective(terms, scene, e) -> float:

@@ -1,6 +1,6 @@
 """A synthetic box clip with ground truth: DeepMimic's jump, landing on a box (issue 15's box check).
 
-`python bench/box_clip.py [--height 0.2] [--out-dir bench/scenes]` writes
+`python services/bench/scripts/box_clip.py [--height 0.2] [--out-dir bench/scenes]` writes
 
 - `box_jump.npz`: deepmimic:jump played once (not looped) with the root raised by the box
   height during the flight (smoothstep from take-off to landing, the frames where neither
@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
 
 BOX_ALONG, BOX_LENGTH, BOX_WIDTH = 1.1, 1.0, 1.0  # near edge 0.6 m: past the take-off toes, before the landing heels
 FLIGHT_BAND, CONTACT_BAND = 0.04, 0.03
@@ -78,7 +78,7 @@ def _scene_yaml(name: str, along: float, height: float, half_domain: float) -> s
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--height", type=float, default=0.2, help="box height (m)")
-    parser.add_argument("--out-dir", default=str(Path(__file__).parent / "scenes"))
+    parser.add_argument("--out-dir", default=str(Path(__file__).resolve().parents[3] / "bench" / "scenes"))
     args = parser.parse_args(argv)
     from actors.motion.formats.io import save_motion
     from learner.atomic_io import atomic_output
