@@ -160,3 +160,15 @@ def load_robot_motion(path: str | os.PathLike, character: str | None = None) -> 
         joint_names, limits = g1_spec.JOINT_NAMES, g1_spec.JOINT_LIMITS
     validate(motion, path, joint_names, limits)
     return motion
+
+
+def is_robot_motion(path: str | os.PathLike) -> bool:
+    """True for an .npz whose `format` is a robot motion's (anything unreadable: False)."""
+    path = Path(path)
+    if path.suffix.lower() != ".npz" or not path.is_file():
+        return False
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return "format" in data.files and str(data["format"]) == FORMAT
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError):
+        return False
