@@ -2,12 +2,18 @@
 
     sfv motion check MOTION [--physics-hz HZ]
     sfv motion convert IN --out OUT.npz [--rig auto|NAME|MAP.yaml] [--up +y] [--forward +z] [--units cm] [--loop auto]
+    sfv motion convert IN --character g1 --out IN_g1.npz [--fps F]
     sfv motion bend MOTION --yaw-rate DEG_PER_S --seconds S --out OUT.npz
 
 MOTION is a DeepMimic clip name (`deepmimic:walk`) or a path (.npz, DeepMimic JSON or BVH).
 A BVH from another rig is retargeted onto the humanoid (`actors/motion/formats/retarget.py`); `convert`
 then adds what the retargeting did to its JSON (`retarget`: rig, axes, units, clipped
 angles, floor shift, penetration before/after, foot skating of source and result).
+`convert --character g1` retargets the clip onto the Unitree G1 (`actors/motion/robot_retarget.py`;
+the robot's model comes from `sfv models fetch --robot g1`) and writes a robot motion
+(`actors/motion/robot_motion.py`) and, beside it, OUT.json: per-body position error after
+scaling, limit clipping, penetration and foot skating of the source, the scaled source and the
+robot (the same figures as the result lines it prints).
 `check` loads the clip, builds the imitation env on it and prints one JSON object: the
 clip's summary and `playback_reward`, the mean reward when the simulated character is put
 exactly on the reference at every control step of one pass of the clip. A value below 1
@@ -42,6 +48,10 @@ def register(subparsers) -> None:
     convert = actions.add_parser("convert", help="load any supported motion format and save it as sfv .npz")
     convert.add_argument("motion", help="deepmimic:<clip> or a path to a .npz / DeepMimic JSON motion")
     convert.add_argument("--out", required=True, help="where to write the .npz (written atomically)")
+    convert.add_argument("--character", choices=("humanoid3d", "g1"), default="humanoid3d",
+                         help="the body to convert for: humanoid3d (the project's .npz) or g1 (retargeted onto the "
+                              "Unitree G1; a robot motion .npz and OUT.json with the retargeting report)")
+    convert.add_argument("--fps", type=float, default=None, help="with --character g1: output frame rate (default: the clip's)")
     _add_bvh_flags(convert)
     convert.set_defaults(handler=run_convert)
 
@@ -112,6 +122,10 @@ def run_check(args: argparse.Namespace) -> int:
 def run_convert(args: argparse.Namespace) -> int:
     from actors.motion.formats.io import check_motion, is_bvh_file, load_motion, resolve_motion_path, save_motion
 
+    if args.character == "g1":
+        return _convert_to_g1(args)
+    if args.fps is not None:
+        raise SfvError("--fps applies to --character g1 only")
     retarget_report = None
     if not args.motion.startswith("deepmimic:") and is_bvh_file(args.motion):
         from actors.motion.formats.bvh_import import import_bvh
@@ -137,6 +151,65 @@ def run_convert(args: argparse.Namespace) -> int:
         report["bvh"] = retarget_report.pop(FILE_REPORT)  # frames declared / read, each tolerated quirk
         report["retarget"] = retarget_report
     print(json.dumps(report))
+    return 0
+
+
+def _load_any(args: argparse.Namespace):
+    """The source clip: a BVH through the importer (rig flags apply), anything else by name."""
+    from actors.motion.formats.io import check_motion, is_bvh_file, load_motion, resolve_motion_path
+
+    if not args.motion.startswith("deepmimic:") and is_bvh_file(args.motion):
+        from actors.motion.formats.bvh_import import import_bvh
+        from actors.motion.formats.retarget import RetargetOptions
+
+        loop = {"auto": None, "yes": True, "no": False}[args.loop]
+        path = resolve_motion_path(args.motion)
+        motion, _ = import_bvh(path, args.rig, RetargetOptions(args.up, args.forward, args.units, loop))
+        check_motion(path, motion)
+        return motion
+    if args.rig != "auto" or args.up or args.forward or args.units or args.loop != "auto":
+        raise SfvError(f"{args.motion}: --rig, --up, --forward, --units and --loop apply to BVH input only")
+    return load_motion(args.motion)
+
+
+def g1_result_lines(report: dict) -> list[str]:
+    """The retargeting report as the lines `convert --character g1` prints."""
+    error, pen, skate, clip = (report["key_body_error_m"], report["penetration_m"], report["skating_m_s"],
+                               report["limit_clipping"])
+    return [
+        f"key-body error after scaling (x{report['scale']:.3f}): mean {100 * error['mean']:.2f} cm, "
+        f"max {100 * error['max']:.2f} cm ({error['worst_body']})",
+        f"joint limits: {clip['joint_frames_at_limit']} joint-frames at a limit"
+        + (f" ({', '.join(f'{k} {v}' for k, v in clip['joints'].items())})" if clip["joints"] else ""),
+        f"penetration: source {100 * pen['source']:.2f} cm, scaled source {100 * pen['scaled_source']:.2f} cm, "
+        f"robot {100 * pen['robot']:.2f} cm",
+        f"foot skating: source {100 * skate['source']:.1f} cm/s, scaled source {100 * skate['scaled_source']:.1f} cm/s, "
+        f"robot {100 * skate['robot']:.1f} cm/s",
+    ]
+
+
+def _convert_to_g1(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from actors.motion.robot_motion import save_robot_motion
+    from actors.motion.robot_retarget import retarget_to_g1
+    from learner.atomic_io import atomic_write_json
+
+    if args.fps is not None and not (math.isfinite(args.fps) and 1 <= args.fps <= 1000):
+        raise SfvError(f"--fps must be a frame rate in [1, 1000], got {args.fps}")
+    motion = _load_any(args)
+    robot_motion, report = retarget_to_g1(motion, args.motion, args.fps)
+    out = Path(args.out)
+    report_path = out.with_suffix(".json")
+    try:
+        save_robot_motion(robot_motion, out)
+        atomic_write_json(report_path, {**robot_motion.summary(), "out": str(out), "retarget": report})
+    except OSError as exc:
+        raise SfvError(f"{args.out}: cannot write motion ({exc.strerror or exc})") from None
+    for line in g1_result_lines(report):
+        print(line)
+    print(f"wrote {out} ({robot_motion.num_frames} frames at {robot_motion.fps:.3g} fps, {report['seconds']:.1f} s) "
+          f"and {report_path}")
     return 0
 
 

@@ -1,0 +1,44 @@
+"""g1: the Unitree G1 (29 DoF) as a `Character` (`actors/character/base.py`).
+
+Its numbers live in `g1_spec.py` (joints, limits, motors, PD gains, key bodies, mirror map,
+reward weights), its model in `g1_model.py` (the cached Unitree MJCF, `sfv models fetch
+--robot g1`, composed with our actuators and an arena); this module gathers them behind the
+interface. The env does not take it yet (issue 25, item 2).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from actors.character import g1_spec as spec
+from actors.character.g1_model import G1Model, build_g1_mjcf
+from actors.character.humanoid import PhysicsConfig
+
+
+class G1:
+    name = spec.NAME
+    link_names = spec.LINK_NAMES
+    joint_names = spec.JOINT_NAMES
+    joint_is_spherical = np.zeros(spec.NUM_JOINTS, dtype=bool)
+    nq = spec.NQ  # 36
+    nv = spec.NV  # 35
+    nu = spec.NUM_JOINTS  # 29
+    kp = spec.KP
+    kd = spec.KD
+    torque_limits = spec.EFFORT_LIMITS
+    joint_limits = spec.JOINT_LIMITS
+    armature = spec.ARMATURE
+    end_effector_links = np.array([spec.LINK_NAMES.index(n) for n in spec.END_EFFECTORS])
+    feet = spec.FEET
+    link_mirror = spec.LINK_MIRROR
+    joint_mirror = spec.JOINT_MIRROR
+    joint_mirror_sign = spec.JOINT_MIRROR_SIGN
+    reward_joint_weights = spec.REWARD_JOINT_WEIGHTS
+
+    def mjcf(self, physics: PhysicsConfig = PhysicsConfig(), arena=None) -> str:
+        return build_g1_mjcf(physics, arena)
+
+    def build(self, physics: PhysicsConfig = PhysicsConfig(), arena=None) -> G1Model:
+        return G1Model(physics, arena)
+
+
+G1_ROBOT = G1()

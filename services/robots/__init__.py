@@ -1,0 +1,1 @@
+"""Robot models: fetching and caching their files (`sfv models fetch --robot NAME`)."""
