@@ -27,7 +27,7 @@ class Character(Protocol):
     nq: int  # the character's own qpos size (a free root first)
     nv: int  # its qvel size
     nu: int  # its actuators: the PD targets an action sets
-    hinge_axis: np.ndarray  # (3,) the axis every 1-DoF joint turns about, in its parent's frame
+    hinge_axes: np.ndarray  # (hinge joints, 3) the axis each 1-DoF joint turns about, in its parent's frame
     actuator_limits: np.ndarray  # (nu, 2) target limits: ball joints' 3 axes first, then the hinges
     kp: np.ndarray  # (joints,) PD gains
     kd: np.ndarray

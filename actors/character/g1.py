@@ -17,8 +17,11 @@ from actors.character.humanoid import PhysicsConfig
 class G1:
     name = spec.NAME
     link_names = spec.LINK_NAMES
+    num_links = len(spec.LINK_NAMES)
     joint_names = spec.JOINT_NAMES
     joint_is_spherical = np.zeros(spec.NUM_JOINTS, dtype=bool)
+    hinge_axes = spec.HINGE_AXES
+    actuator_limits = spec.JOINT_LIMITS  # the PD targets stay within the joints' range
     nq = spec.NQ  # 36
     nv = spec.NV  # 35
     nu = spec.NUM_JOINTS  # 29
@@ -29,6 +32,7 @@ class G1:
     armature = spec.ARMATURE
     end_effector_links = np.array([spec.LINK_NAMES.index(n) for n in spec.END_EFFECTORS])
     feet = spec.FEET
+    torso_links = np.array([spec.LINK_NAMES.index(spec.ROOT_BODY), spec.LINK_NAMES.index(spec.TORSO_BODY)])  # the head is on the torso
     link_mirror = spec.LINK_MIRROR
     joint_mirror = spec.JOINT_MIRROR
     joint_mirror_sign = spec.JOINT_MIRROR_SIGN

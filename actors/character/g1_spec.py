@@ -93,6 +93,9 @@ VELOCITY_LIMITS = np.array([MOTORS[j[3]].velocity_limit for j in _JOINTS])  # ra
 KP = ARMATURE * NATURAL_FREQUENCY ** 2  # N m / rad
 KD = 2.0 * DAMPING_RATIO * ARMATURE * NATURAL_FREQUENCY  # N m s / rad
 
+# Each hinge's axis in its body frame, as g1.xml has it: pitch (knees, elbows) y, roll x, yaw z.
+HINGE_AXES = np.array([(1.0, 0.0, 0.0) if "roll" in n else (0.0, 0.0, 1.0) if "yaw" in n else (0.0, 1.0, 0.0) for n in JOINT_NAMES])
+
 NQ = 7 + NUM_JOINTS  # 36: free root (pos, quat wxyz), then the hinges
 NV = 6 + NUM_JOINTS  # 35
 JOINT_QPOS_ADR = 7 + np.arange(NUM_JOINTS)

@@ -24,7 +24,7 @@ class Humanoid3D:
     nu = skeleton.NUM_ACTUATED_DOF  # 28
     nq = 7 + 4 * int(skeleton.JOINT_IS_SPHERICAL.sum()) + int((~skeleton.JOINT_IS_SPHERICAL).sum())  # 43
     nv = 6 + nu  # 34
-    hinge_axis = skeleton.HINGE_AXIS
+    hinge_axes = np.tile(skeleton.HINGE_AXIS, (int((~skeleton.JOINT_IS_SPHERICAL).sum()), 1))  # every hinge turns about one axis
     actuator_limits = skeleton.actuator_limits()
     kp = np.array([skeleton.LINKS[i].kp for i in skeleton.JOINT_LINKS])
     kd = np.array([skeleton.LINKS[i].kd for i in skeleton.JOINT_LINKS])

@@ -35,7 +35,7 @@ class StateLayout:
         self.nq, self.nv = humanoid.nq, humanoid.nv
         qadr, dadr = humanoid.joint_qpos_adr, humanoid.joint_dof_adr
         sph, rev = humanoid.character.joint_is_spherical, ~humanoid.character.joint_is_spherical
-        self.hinge_axis = humanoid.character.hinge_axis
+        self.hinge_axes = humanoid.character.hinge_axes  # (hinges, 3)
         self.num_joints = len(sph)
         self.ball_qpos = qadr[sph][:, None] + np.arange(4)  # (8, 4)
         self.ball_dof = dadr[sph][:, None] + np.arange(3)  # (8, 3)
@@ -59,18 +59,18 @@ class StateLayout:
         qpos[3:7] = pose.root_rot
         qpos[self.ball_qpos] = pose.joint_rot[self.spherical]
         hinges = pose.joint_rot[self.revolute]
-        qpos[self.hinge_qpos] = 2.0 * np.arctan2(hinges[..., 1:] @ self.hinge_axis, hinges[..., 0])  # signed angle about the axis
+        qpos[self.hinge_qpos] = 2.0 * np.arctan2(np.einsum("...jk,jk->...j", hinges[..., 1:], self.hinge_axes), hinges[..., 0])  # signed angle about the axis
         qvel[0:3] = pose.root_lin_vel
         qvel[3:6] = pose.root_ang_vel
         qvel[self.ball_dof] = pose.joint_ang_vel[self.spherical]
-        qvel[self.hinge_dof] = pose.joint_ang_vel[self.revolute] @ self.hinge_axis
+        qvel[self.hinge_dof] = np.einsum("...jk,jk->...j", pose.joint_ang_vel[self.revolute], self.hinge_axes)
 
     def joint_quats_from_qpos(self, qpos: np.ndarray, out: np.ndarray) -> np.ndarray:
         """(joints, 4) local joint quaternions in skeleton order from a qpos vector."""
         out[self.spherical] = qpos[self.ball_qpos]
         half = 0.5 * qpos[self.hinge_qpos]
         out[self.revolute, 0] = np.cos(half)
-        out[self.revolute, 1:] = np.sin(half)[:, None] * self.hinge_axis
+        out[self.revolute, 1:] = np.sin(half)[:, None] * self.hinge_axes
         return out
 
     def state_vector(self, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:

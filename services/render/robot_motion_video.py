@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 
 from actors.character.g1_model import G1Model
-from actors.character.humanoid import Humanoid
+from actors.character.humanoid3d import Humanoid
 from actors.character.state import StateLayout
 from actors.motion.reference_motion import ReferenceMotion
 from actors.motion.robot_motion import RobotMotion

@@ -59,3 +59,17 @@ def test_the_g1_has_every_member_of_the_character_interface():
     assert G1_ROBOT.kp.shape == G1_ROBOT.kd.shape == G1_ROBOT.torque_limits.shape == (G1_ROBOT.nu,)
     assert [spec.LINK_NAMES[i] for i in G1_ROBOT.end_effector_links] == list(spec.FEET + spec.HANDS)
     assert set(G1_ROBOT.reward_joint_weights) == set(spec.LINK_NAMES)
+
+
+def test_the_hinge_axes_are_the_models():
+    """The axes the state layout turns hinges about are g1.xml's (needs the fetched model)."""
+    import re
+
+    from actors.character.g1_model import default_model_dir
+
+    path = default_model_dir() / "g1.xml"
+    if not path.is_file():
+        pytest.skip(f"no G1 model cached at {path} (sfv models fetch --robot g1)")
+    xml = path.read_text()
+    axes = {m.group(1): np.array(m.group(2).split(), float) for m in re.finditer(r'<joint[^>]*name="([^"]+)"[^>]*axis="([^"]+)"', xml)}
+    np.testing.assert_array_equal(np.array([axes[n] for n in spec.JOINT_NAMES]), spec.HINGE_AXES)

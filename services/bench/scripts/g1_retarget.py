@@ -7,24 +7,23 @@ seconds it took. The BVH clip is DeepMimic's jump written through a foreign skel
 joint names, A-pose rest, Y up, centimetres, 1.1x the humanoid: `tests/foreign_rig.py`), so it
 goes through the BVH importer first. Needs the cached model (`sfv models fetch --robot g1`).
 
-    python bench/g1_retarget.py --out bench/results/g1_retarget.json [--clips walk,run,cartwheel,bvh:jump]
+    python services/bench/scripts/g1_retarget.py --out bench/results/g1_retarget.json [--clips walk,run,cartwheel,bvh:jump]
 """
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
 import json
 import os
 import platform
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+REPO = Path(__file__).resolve().parents[3]
+sys.path.insert(0, str(REPO))
 
 from actors.motion.formats.io import load_motion  # noqa: E402
-from services.cli import main as sfv  # noqa: E402
 from services.training.run_dir import write_json_atomic  # noqa: E402
 
 KEEP = ("frames", "fps", "scale", "contact_frames", "key_body_error_m", "limit_clipping", "joint_speed",
@@ -53,14 +52,14 @@ def main() -> int:
         for clip in args.clips.split(","):
             source = source_for(clip, folder)
             out = folder / f"{clip.replace(':', '_')}_g1.npz"
-            lines = io.StringIO()
-            with contextlib.redirect_stdout(lines):
-                status = sfv(["motion", "convert", source, "--character", "g1", "--out", str(out)])
-            if status:
-                raise SystemExit(f"{clip}: sfv motion convert exited {status}")
+            # The command as a user runs it (a subprocess: the benchmark package does not import the CLI).
+            done = subprocess.run([sys.executable, "-m", "services.cli", "motion", "convert", source, "--character", "g1",
+                                   "--out", str(out)], capture_output=True, text=True, cwd=REPO)
+            if done.returncode:
+                raise SystemExit(f"{clip}: sfv motion convert exited {done.returncode}: {done.stderr.strip()[-300:]}")
             report = json.loads(out.with_suffix(".json").read_text())["retarget"]
             results[clip] = {"source": "mixamo-rig BVH of deepmimic:" + clip.split(":")[1] if clip.startswith("bvh:") else source,
-                             **{k: report[k] for k in KEEP}, "result_lines": lines.getvalue().splitlines()}
+                             **{k: report[k] for k in KEEP}, "result_lines": done.stdout.splitlines()}
             print(clip, json.dumps(results[clip]["targets"]), f"{results[clip]['seconds']} s", flush=True)
     summary = {
         "what": "sfv motion convert CLIP --character g1: the scaled source's key bodies (pelvis, torso, knees, feet, "
