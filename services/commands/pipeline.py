@@ -29,11 +29,13 @@ def register(sub) -> None:
 
     p = sub.add_parser("pipeline", help=HELP,
                        usage="sfv pipeline VIDEO --out DIR [--camera static|moving] [--scene BOXES.yaml] [--resume] "
+                             "[--checkpoint best|latest] [--finish-only] "
                              "[--config FILE.yaml] [training settings ...]  (sfv pipeline --help lists every setting)",
                        description="Reconstruct a motion from a video, then train a controller for it. The training "
                                    "settings are `sfv train`'s (the config dataclasses' fields, same defaults).")
     p.add_argument("video", type=Path, help="input video of one person")
-    p.add_argument("--out", type=Path, required=True, help="output directory: track.npz, motion.npz, train/")
+    p.add_argument("--out", type=Path, required=True, help="output directory: track.npz, motion.npz, train/, then (static "
+                   "camera) simulated.npz, simulated.bvh, video.mp4, overlay_strip.png, report.json")
     p.add_argument("--pose-models", default=None, help="BlazePose model directory (default: `sfv models fetch` cache)")
     p.add_argument("--iterations", type=int, default=None, help="reconstruction optimiser steps")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
