@@ -111,6 +111,18 @@ def test_finishing_writes_the_files_and_a_report_that_adds_up(finished, trained)
 
 
 @pytest.mark.slow
+def test_the_report_and_sfv_eval_agree_on_the_first_frame_episode(finished, trained):
+    from services.training.evaluation import evaluate_run
+
+    root, report, _ = finished
+    first = evaluate_run(trained[3], episodes=1)["first_frame"]
+    assert first["fell"] == report["fell"]
+    assert first["normalized_return"] == pytest.approx(report["normalized_return"], abs=1e-4)  # the report rounds
+    if report["fell"]:
+        assert first["episode_seconds"] == pytest.approx(report["fell_at_s"], abs=1e-3)
+
+
+@pytest.mark.slow
 def test_the_simulated_motion_is_a_motion_training_takes(finished):
     from actors.envs.imitation_env import EnvConfig, ImitationEnv
     from actors.motion.formats.bvh import load_bvh_motion
