@@ -10,7 +10,10 @@ DeepMimic's contact rule (any link but the feet, and those the clip allows, on t
 plus a pelvis-height floor. Keys: normalized_return (+ _std), fall_rate, episode_length,
 episode_seconds, joint_rotation_error_rad, end_effector_error_m, distance_ratio (looped clips),
 divergences, episodes; with --push: pushes, push_impulse_ns, push_duration_s, push_episodes,
-push_survival_rate. `services/training/evaluation.py` defines each.
+push_survival_rate; for a clip that does not loop, first_frame: the episode from the clip's first
+frame to its end (normalized_return, fell, episode_seconds, clip_seconds, joint and end-effector
+errors), also said in one line on stderr beside the phase average. `services/training/evaluation.py`
+defines each.
 """
 from __future__ import annotations
 
@@ -88,6 +91,22 @@ def run(args) -> int:
     seed = _integer("--seed", args.seed)
     if args.run is None and args.onnx is None:
         raise SfvError("eval: give a run directory or --onnx FILE")
-    print(json.dumps(evaluate_run(args.run, episodes, seed, onnx=args.onnx, motion=args.motion, pushes=pushes,
-                                  push_impulse=impulse, push_duration_s=duration, checkpoint=args.checkpoint)))
+    result = evaluate_run(args.run, episodes, seed, onnx=args.onnx, motion=args.motion, pushes=pushes,
+                          push_impulse=impulse, push_duration_s=duration, checkpoint=args.checkpoint)
+    if "first_frame" in result:
+        import sys
+
+        print(result_line(result), file=sys.stderr)
+    print(json.dumps(result))
     return 0
+
+
+def result_line(result: dict) -> str:
+    """The first-frame episode beside the phase average, for people."""
+    first = result["first_frame"]
+    falls = int(round(result["fall_rate"] * result["episodes"]))
+    how = (f"fell at {first['episode_seconds']:.2f} s of {first['clip_seconds']:.2f} s" if first["fell"]
+           else f"upright to the end ({first['clip_seconds']:.2f} s)")
+    return (f"from the first frame: {how}, normalised return {first['normalized_return']:.3f}; "
+            f"from {result['episodes']} evenly spaced phases: normalised return {result['normalized_return']:.3f}, "
+            f"{falls} of {result['episodes']} fell")

@@ -2,7 +2,12 @@
 
 One Ray job graph on one Ray session: the pose tasks' track feeds the reconstruction task,
 whose motion (written to DIR/motion.npz) the training driver imitates with its rollout
-actors (run directory DIR/train).
+actors (run directory DIR/train). Then the controller is played against the video
+(`services/pipeline/finish.py`): its best checkpoint from the clip's first frame for the clip's
+length, written as DIR/simulated.npz, simulated.bvh, video.mp4 (video | reference | simulation),
+overlay_strip.png (the simulation over the video through the reconstruction's camera) and
+report.json (fall, return, joint error, foot skating, penetration, reprojection error).
+`--finish-only` does that last step again on a finished DIR (another `--checkpoint`).
 
 `--camera moving [--scene boxes.yaml]` (002 §5-6): the motion is written root-free, then
 `services/scene_fit` trains its windows' policies in 002's tracking mode (each window a run
@@ -24,11 +29,13 @@ def register(sub) -> None:
 
     p = sub.add_parser("pipeline", help=HELP,
                        usage="sfv pipeline VIDEO --out DIR [--camera static|moving] [--scene BOXES.yaml] [--resume] "
+                             "[--checkpoint best|latest] [--finish-only] "
                              "[--config FILE.yaml] [training settings ...]  (sfv pipeline --help lists every setting)",
                        description="Reconstruct a motion from a video, then train a controller for it. The training "
                                    "settings are `sfv train`'s (the config dataclasses' fields, same defaults).")
     p.add_argument("video", type=Path, help="input video of one person")
-    p.add_argument("--out", type=Path, required=True, help="output directory: track.npz, motion.npz, train/")
+    p.add_argument("--out", type=Path, required=True, help="output directory: track.npz, motion.npz, train/, then (static "
+                   "camera) simulated.npz, simulated.bvh, video.mp4, overlay_strip.png, report.json")
     p.add_argument("--pose-models", default=None, help="BlazePose model directory (default: `sfv models fetch` cache)")
     p.add_argument("--iterations", type=int, default=None, help="reconstruction optimiser steps")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -39,6 +46,13 @@ def register(sub) -> None:
                    "positions and heights are fitted within their domains")
     p.add_argument("--resume", action="store_true", help="with --camera moving: continue an interrupted run in --out "
                    "(its motion.npz kept, finished windows kept, the window in progress from its checkpoint)")
+    p.add_argument("--checkpoint", choices=("best", "latest"), default="best",
+                   help="the checkpoint played against the video: best (best.pt, the best periodic evaluation; the "
+                        "newest when the run has none) or latest")
+    p.add_argument("--finish-only", action="store_true",
+                   help="static camera: only play DIR/train's controller against the video again (DIR/motion.npz and "
+                        "DIR/train from an earlier run), rewriting simulated.npz, simulated.bvh, video.mp4, "
+                        "overlay_strip.png and report.json")
     p.add_argument("--config", default=None, metavar="FILE.yaml",
                    help="training settings from a YAML file (the layout `sfv train --print-config` writes); flags given win")
     add_config_flags(p, skip=PIPELINE_SETS, title="training settings (`sfv train`'s; each a config field)")
@@ -46,6 +60,10 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    if args.camera == "moving" and args.finish_only:
+        from learner.errors import SfvError
+
+        raise SfvError("--finish-only is for --camera static (the moving path writes its outputs itself; --resume continues it)")
     if args.camera == "moving":
         from services.commands._moving_pipeline import run_moving
 
@@ -54,7 +72,38 @@ def run(args) -> int:
 
     if args.scene is not None or args.resume:
         raise SfvError(f"{'--scene' if args.scene is not None else '--resume'} needs --camera moving")
+    if args.finish_only:
+        return run_finish_only(args)
     return run_static(args)
+
+
+def _finish(args, out: Path, motion_path: Path, run_dir: Path) -> dict:
+    """The controller against the video; one line per file written, then the report."""
+    from services.pipeline.finish import finish_static_run
+
+    return finish_static_run(out, args.video, motion_path, run_dir, checkpoint=args.checkpoint, progress=not args.quiet)
+
+
+def _summary(report: dict) -> dict:
+    return {key: report[key] for key in ("fell", "fell_at_s", "normalized_return", "files")} | {
+        "joint_position_error_m": report["joint_position_error_m"]["mean"],
+        "reprojection_error_px": (report["reprojection_error_px"]["simulated"] or {}).get("mean")}
+
+
+def run_finish_only(args) -> int:
+    from learner.errors import SfvError
+    from services.pose.video import probe_video
+    from services.training.run_dir import CONFIG_FILE
+
+    out: Path = args.out
+    motion_path, run_dir = out / "motion.npz", out / "train"
+    for path, what in ((motion_path, "motion.npz"), (run_dir / CONFIG_FILE, f"train/{CONFIG_FILE}")):
+        if not path.is_file():
+            raise SfvError(f"{out}: has no {what}; --finish-only needs a directory an earlier `sfv pipeline` wrote")
+    probe_video(args.video)
+    report = _finish(args, out, motion_path, run_dir)
+    print(json.dumps({"motion": str(motion_path), "run": str(run_dir), **_summary(report)}))
+    return 0
 
 
 def run_static(args) -> int:
@@ -76,7 +125,8 @@ def run_static(args) -> int:
     train = train_config(args, str(out / "motion.npz"), str(out / "train"))  # a bad setting: one line before any work
     probe_video(args.video)  # missing file / not a video / no frames: one-line error before any work
     if (out / "motion.npz").exists():
-        raise SfvError(f"{out}: holds a pipeline run already; choose another --out")
+        raise SfvError(f"{out}: holds a pipeline run already; choose another --out (or --finish-only to play its "
+                       "controller against the video again)")
     out.mkdir(parents=True, exist_ok=True)
     attach_log_file(out)  # library output (Ray, gRPC, warnings) goes to DIR/sfv.log
     config = ReconstructionConfig()
@@ -93,6 +143,8 @@ def run_static(args) -> int:
     finally:
         if started_ray:
             ray.shutdown()
+    report = _finish(args, out, motion_path, Path(train.out))
     print(json.dumps({"motion": str(motion_path), "frames": motion.num_frames, "run": train.out,
-                      "samples": record.get("samples"), "normalized_return": record.get("normalized_return")}))
+                      "samples": record.get("samples"), "training_normalized_return": record.get("normalized_return"),
+                      "first_frame": _summary(report)}))
     return 0

@@ -33,6 +33,11 @@ Figures (one dict):
 - episodes; with pushes: pushes, push_impulse_ns, push_duration_s, push_episodes, push_survival_rate.
 - fall_phases: the clip phase (0 at its first frame, 1 at its last) at which each fall happened,
   sorted: falls bunched at one phase name the part of the clip the controller has not learned.
+- first_frame (`sfv eval`, clips that do not loop): the episode a user sees first, started at the
+  clip's first frame (FSI) and run to the clip's end with the same strict falls and no pushes:
+  normalized_return, fell, episode_seconds of clip_seconds, joint_rotation_error_rad,
+  end_effector_error_m. An average over phases can hide a controller that falls from the start
+  (a short clip's later phases are easy: little of it is left to survive).
 
 Pushes (`pushes=N`, `sfv eval --push N`; the render's push code, `actors/envs/pushes.py`):
 each push is an impulse of `push_impulse` N s (default 40 N s: a 45 kg character's speed changes
@@ -222,6 +227,15 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
     return result
 
 
+def first_frame_episode(policy, env: ImitationEnv, seed: int = 0) -> dict:
+    """The strict episode from the clip's first frame to its end (see the module docstring)."""
+    one = evaluate_policy(policy, env, 1, seed, init="fsi")
+    hz = env.config.control_hz
+    return {"normalized_return": one["normalized_return"], "fell": one["fall_rate"] > 0.0,
+            "episode_seconds": one["episode_seconds"], "clip_seconds": env.max_episode_steps / hz,
+            "joint_rotation_error_rad": one["joint_rotation_error_rad"], "end_effector_error_m": one["end_effector_error_m"]}
+
+
 # --------------------------------------------------------------------------- runs / CLI
 def make_eval_env(motion, env_config) -> ImitationEnv:
     """An env for evaluation: the training settings with early termination off (the strict
@@ -243,6 +257,8 @@ def evaluate_run(run_dir: str | Path | None, episodes: int = DEFAULT_EPISODES, s
     env = make_eval_env(load_motion(source.motion), source.env_config)
     with threadpool_limits(1, user_api="blas"):  # batch-1 inference: BLAS threads only spin
         result = evaluate_policy(source.policy, env, episodes, seed, pushes, push_impulse, push_duration_s)
+        if not env.motion.loop:
+            result["first_frame"] = first_frame_episode(source.policy, env, seed)
     result.update(motion=env.motion.name, policy=source.description)
     if source.checkpoint is not None:
         result["checkpoint"] = source.checkpoint

@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -30,6 +31,16 @@ def test_pipeline_video_to_controller(tmp_path, shared_dir):
     assert "keypoints3d" in motion.extras
     rows = read_metrics(out / "train")
     assert rows and rows[-1]["samples"] == 128
+    # Then the controller against the video: the finishing step's files, one result line each.
+    files = summary["first_frame"]["files"]
+    assert [name for name in ("motion", "bvh", "video", "overlay_strip", "report") if (out / Path(files[name]).name).is_file()] == \
+        ["motion", "bvh", "video", "overlay_strip", "report"]
+    report = json.loads((out / "report.json").read_text())
+    assert report["frames"] == 51  # 100 frames at 60 fps: 1.65 s, 50 control steps
+    # The reference reprojected at the control steps' video frames errs as the reconstruction says it does.
+    assert abs(report["reprojection_error_px"]["reference"]["mean"] - float(motion.extras["reprojection_error_px"].mean())) < 3.0
+    said = done.stdout.splitlines()
+    assert all(any(line.endswith(files[name]) or f"{files[name]} (" in line for line in said) for name in files)
 
 
 def test_pipeline_rejects_a_file_that_is_not_a_video(tmp_path):

@@ -1,0 +1,1 @@
+"""The pipeline's finishing step: rollout from the first frame, report, pictures."""
