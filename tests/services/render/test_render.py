@@ -116,7 +116,10 @@ def test_pushes_are_drawn(source, tmp_path):
     assert summary["episodes"][0]["pushes"] == 1
     frames = decode(tmp_path / "push.mp4").astype(int)
     red = (frames[..., 0] > 170) & (frames[..., 1] < 110) & (frames[..., 2] < 110)
-    assert red[:6].sum() == 0 and red.sum(axis=(1, 2)).max() > 10  # nothing red before the push, then arrow/label
+    # Nothing red before the push, then the arrow in the frames it acts (at 160x120 it covers 5-10
+    # pixels a frame, depending on its direction against the camera).
+    per_frame = red.sum(axis=(1, 2))
+    assert per_frame[:6].sum() == 0 and (per_frame > 0).sum() >= 3 and per_frame.sum() > 20
 
 
 def test_a_failing_render_leaves_nothing(source, tmp_path):
