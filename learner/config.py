@@ -75,7 +75,19 @@ class PPOConfig:
         metadata={"help": "weight of the squared penalty on policy means outside +-action_bound (0 disables)"},
     )
     optimizer: str = field(default="adam", metadata={"choices": ("adam", "sgd"), "help": "'adam' (default, faster) or 'sgd' (paper: SGD, momentum 0.9)"})
-    policy_lr: float = field(default=5e-5, metadata={"help": "policy learning rate (paper SGD: 2.5e-6)"})
+    policy_lr: float = field(default=5e-5, metadata={"help": "policy learning rate at the start (paper SGD: 2.5e-6)"})
+    policy_lr_final: float | None = field(
+        default=None,
+        metadata={"help": "policy learning rate reached after anneal_samples, linearly from policy_lr (None: constant)"},
+    )
+    action_std_final: float | None = field(
+        default=None,
+        metadata={"help": "exploration std reached after anneal_samples, linearly from action_std (None: constant)"},
+    )
+    anneal_samples: int = field(
+        default=16_000_000,
+        metadata={"help": "samples over which policy_lr and action_std move to their final values, then held (independent of the budget)"},
+    )
     value_lr: float = field(default=1e-3, metadata={"help": "value learning rate (paper SGD: 0.01)"})
     sgd_momentum: float = field(default=0.9, metadata={"help": "momentum when optimizer='sgd' (paper: 0.9)"})
     max_grad_norm: float | None = field(
@@ -109,7 +121,10 @@ class PPOConfig:
             problems.append(f"optimizer must be 'adam' or 'sgd', got {self.optimizer!r}")
         if self.tuple_sampling not in TUPLE_SAMPLING_MODES:
             problems.append(f"tuple_sampling must be one of {', '.join(TUPLE_SAMPLING_MODES)}, got {self.tuple_sampling!r}")
-        for name in ("batch_size", "minibatch_size", "update_epochs", "tuples_per_episode"):
+        for name in ("policy_lr_final", "action_std_final"):
+            if getattr(self, name) is not None and not getattr(self, name) > 0.0:
+                problems.append(f"{name} must be > 0 (or None)")
+        for name in ("batch_size", "minibatch_size", "update_epochs", "tuples_per_episode", "anneal_samples"):
             if getattr(self, name) < 1:
                 problems.append(f"{name} must be >= 1")
         for name in ("gamma", "gae_lambda", "td_lambda"):

@@ -39,6 +39,7 @@ from learner.config import PPOConfig
 from learner.errors import BatchFormatError, NonFiniteError, SfvError
 from learner.networks import ObservationNormalizer, PolicyNetwork, ValueNetwork, linear_layers
 from learner.returns import gae_advantages, td_lambda_returns
+from learner.schedule import linear_anneal
 
 STATE_FORMAT_VERSION = 1
 FLOAT_ARRAYS = ("obs", "next_obs", "actions", "logp", "rewards")
@@ -154,6 +155,23 @@ class PPOLearner:
         if self.config.optimizer == "sgd":
             return torch.optim.SGD(network.parameters(), lr=lr, momentum=self.config.sgd_momentum, foreach=True)
         return torch.optim.Adam(network.parameters(), lr=lr, eps=1e-5, fused=True)
+
+    # ------------------------------------------------------------------ schedule
+
+    def set_progress(self, samples: int) -> dict[str, float]:
+        """Policy learning rate and exploration std for the next batch, `samples` collected so far.
+
+        Call it between updates only: the update's log-probabilities must use the std the
+        batch was sampled with.  Returns the values set (for the metrics).
+        """
+        cfg = self.config
+        lr = linear_anneal(cfg.policy_lr, cfg.policy_lr_final, samples, cfg.anneal_samples)
+        std = linear_anneal(cfg.action_std, cfg.action_std_final, samples, cfg.anneal_samples)
+        for group in self.policy_optimizer.param_groups:
+            group["lr"] = lr
+        with torch.no_grad():
+            self.policy.log_std.fill_(math.log(std))
+        return {"charts/policy_lr": lr, "charts/action_std": std}
 
     # ------------------------------------------------------------------ update
 

@@ -152,6 +152,7 @@ class Trainer:
         asi_version = 0
         if checkpoint is not None:
             asi_version = self._restore(learner, checkpoint)
+        learner.set_progress(self.samples)
         # The ASI server (and its Redis) first: a wrong address fails in seconds, before Ray starts.
         with ASIConnection(config) as asi:
             info = asi.create_job(ref_states, ref_phases)
@@ -208,6 +209,7 @@ class Trainer:
             self.samples += n
             self.iteration += 1
             asi_version = max(asi_version, batch["asi_version"])
+            losses.update(learner.set_progress(self.samples))  # for the next batch
             record = self._record(batch, losses, n, time.perf_counter() - t0, t_sample, asi_version)
             if self.asi_drift is not None:
                 record.update(self.asi_drift(asi_version))
