@@ -237,6 +237,15 @@ def first_frame_episode(policy, env: ImitationEnv, seed: int = 0) -> dict:
 
 
 # --------------------------------------------------------------------------- runs / CLI
+def with_physics_rate(env_config, physics_hz: float):
+    """The env settings at another physics rate, refused in one line unless it is a whole
+    multiple of the control rate (the policy acts at the rate it was trained at)."""
+    ratio = physics_hz / env_config.control_hz
+    if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
+        raise SfvError(f"--physics-hz {physics_hz:g} must be a whole multiple of the run's control rate {env_config.control_hz:g} Hz")
+    return dataclasses.replace(env_config, physics=dataclasses.replace(env_config.physics, physics_hz=float(physics_hz)))
+
+
 def make_eval_env(motion, env_config) -> ImitationEnv:
     """An env for evaluation: the training settings with early termination off (the strict
     fall rule is applied by `evaluate_policy`)."""
@@ -245,21 +254,24 @@ def make_eval_env(motion, env_config) -> ImitationEnv:
 
 def evaluate_run(run_dir: str | Path | None, episodes: int = DEFAULT_EPISODES, seed: int = 0, onnx: str | None = None,
                  motion: str | None = None, pushes: int = 0, push_impulse: float | None = None,
-                 push_duration_s: float | None = None, checkpoint: str = "best") -> dict:
+                 push_duration_s: float | None = None, checkpoint: str = "best", physics_hz: float | None = None) -> dict:
     """Evaluate a run's best checkpoint (`checkpoint="latest"`: its newest; or an exported ONNX
-    policy) on its motion (or `motion`)."""
+    policy) on its motion (or `motion`), at the run's physics rate or at `physics_hz`."""
     from threadpoolctl import threadpool_limits
 
     from actors.motion.formats.io import load_motion
     from services.training.policy_source import load_policy_source
 
     source = load_policy_source(run_dir, onnx, motion, checkpoint)
-    env = make_eval_env(load_motion(source.motion), source.env_config)
+    env_config = source.env_config
+    if physics_hz is not None:
+        env_config = with_physics_rate(env_config, physics_hz)
+    env = make_eval_env(load_motion(source.motion), env_config)
     with threadpool_limits(1, user_api="blas"):  # batch-1 inference: BLAS threads only spin
         result = evaluate_policy(source.policy, env, episodes, seed, pushes, push_impulse, push_duration_s)
         if not env.motion.loop:
             result["first_frame"] = first_frame_episode(source.policy, env, seed)
-    result.update(motion=env.motion.name, policy=source.description)
+    result.update(motion=env.motion.name, policy=source.description, physics_hz=env_config.physics.physics_hz)
     if source.checkpoint is not None:
         result["checkpoint"] = source.checkpoint
     return result
