@@ -76,6 +76,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--clips", default="walk,dance_a,spinkick,backflip", help="DeepMimic clips or motion files, comma-separated")
     parser.add_argument("--leads", default="0,2", help="residual base leads in control steps (target_lead_s x control rate)")
+    parser.add_argument("--physics-hz", default="300", help="physics rates, comma-separated (whole multiples of the 30 Hz control rate)")
     parser.add_argument("--asi-stds", default="0", help="start spreads: 0 = reference states, else ASI at this x the clip's std")
     parser.add_argument("--episodes", type=int, default=30)
     parser.add_argument("--steps", type=int, default=90, help="at most this many control steps an episode")
@@ -86,24 +87,26 @@ def main(argv=None) -> int:
     try:
         leads = [int(x) for x in args.leads.split(",")]
         spreads = [float(x) for x in args.asi_stds.split(",")]
-        if any(x < 0 for x in leads + spreads):
+        rates = [float(x) for x in args.physics_hz.split(",")]
+        if any(x < 0 for x in leads + spreads) or any(x <= 0 for x in rates):
             raise ValueError
     except ValueError:
-        print("error: --leads must be integers >= 0 and --asi-stds numbers >= 0, comma-separated", file=sys.stderr)
+        print("error: --leads must be integers >= 0, --asi-stds numbers >= 0 and --physics-hz rates > 0, comma-separated", file=sys.stderr)
         return 2
     rows = []
     try:
         for clip in [c.strip() for c in args.clips.split(",") if c.strip()]:
             motion = load_motion(clip if ":" in clip or "/" in clip or "." in clip else f"deepmimic:{clip}")
-            for lead in leads:
+            for lead, rate in [(lead, rate) for lead in leads for rate in rates]:
                 config = EnvConfig()
-                config = dataclasses.replace(config, target_lead_s=lead / config.control_hz)
+                config = dataclasses.replace(config, target_lead_s=lead / config.control_hz,
+                                             physics=dataclasses.replace(config.physics, physics_hz=rate))
                 env = ImitationEnv(motion, config)
                 for spread in spreads:
                     result = track(env, starts_for(env, args.episodes, spread, np.random.default_rng(0)),
                                    args.steps, args.terms_steps, args.heading_steps)
-                    rows.append({"clip": motion.name, "lead_steps": lead, "asi_std": spread, **result})
-                    print(f"{motion.name} lead {lead} asi {spread:g}: {result['steps_survived']:.1f} steps, "
+                    rows.append({"clip": motion.name, "lead_steps": lead, "physics_hz": rate, "asi_std": spread, **result})
+                    print(f"{motion.name} lead {lead} {rate:g} Hz asi {spread:g}: {result['steps_survived']:.1f} steps, "
                           f"end effector term {result['reward_terms']['end_effector']:.2f}, "
                           f"heading off {result['heading_error_rad']} rad", flush=True)
     except SfvError as exc:
