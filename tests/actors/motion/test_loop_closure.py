@@ -1,0 +1,65 @@
+"""Closing a looped clip's wrap (actors/motion/loop_closure.py)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from actors.character import quaternion as qn
+from actors.motion.loop_closure import close_loop, wrap_mismatch
+from actors.motion.reference_motion import ReferenceMotion
+
+Z = np.array([0.0, 0.0, 1.0])
+X = np.array([1.0, 0.0, 0.0])
+
+
+def _swing(loop: bool = True, mismatch: float = 0.4) -> ReferenceMotion:
+    """A 2 s clip at 30 fps: every joint swings about x, ending `mismatch` rad past its start;
+    the root turns 0.3 rad in heading and tilts 0.2 rad about x over the clip."""
+    t = np.linspace(0.0, 2.0, 61)
+    angle = 0.3 * np.sin(np.pi * t) + mismatch * t / 2.0
+    joint = np.broadcast_to(qn.quat_about_axis(angle, X)[:, None], (61, 12, 4)).copy()
+    root = qn.quat_mul(qn.quat_about_axis(0.15 * t, Z), qn.quat_about_axis(0.1 * t, X))
+    pos = np.stack((0.5 * t, np.zeros_like(t), np.full_like(t, 0.9)), axis=1)
+    return ReferenceMotion("swing", t, pos, root, joint, loop=loop)
+
+
+def _angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return qn.quat_angle(qn.quat_mul(qn.quat_conj(a), b))
+
+
+def test_the_ends_meet_halfway_and_the_middle_is_untouched():
+    motion = _swing()
+    closed = close_loop(motion, blend_s=0.5)
+    assert wrap_mismatch(motion).max() == pytest.approx(0.4, abs=1e-6)
+    assert wrap_mismatch(closed).max() < 1e-6
+    change = _angles(motion.joint_rot, closed.joint_rot).max(axis=1)
+    assert change[0] == pytest.approx(0.2, abs=1e-6) and change[-1] == pytest.approx(0.2, abs=1e-6)
+    middle = (motion.frame_times > 0.5) & (motion.frame_times < 1.5)
+    assert change[middle].max() < 1e-9
+    # The tilt closes, the heading and the root's path stay.
+    tilt = lambda q: qn.quat_mul(qn.quat_conj(qn.heading_quat(q)), q)  # noqa: E731
+    assert _angles(tilt(closed.root_rot[-1:]), tilt(closed.root_rot[:1]))[0] < 1e-6
+    np.testing.assert_allclose(qn.heading_angle(closed.root_rot), qn.heading_angle(motion.root_rot), atol=1e-9)
+    np.testing.assert_array_equal(closed.root_pos, motion.root_pos)
+
+
+def test_the_closed_clip_plays_smoothly_across_the_wrap():
+    # Sampled at 120 Hz through the wrap, the largest step is the clip's own motion, not a jump.
+    motion, closed = _swing(), close_loop(_swing(), blend_s=0.5)
+    times = np.arange(1.5, 2.5, 1 / 120)
+    for clip, bound in ((motion, 0.3), (closed, 0.03)):
+        joint = clip.sample(times).joint_rot[:, 0]
+        steps = _angles(joint[:-1], joint[1:])
+        assert (steps.max() > bound) == (clip is motion), (clip is motion, steps.max())
+
+
+def test_clips_that_do_not_loop_and_a_zero_blend_are_left_alone():
+    for motion, blend in ((_swing(loop=False), 0.5), (_swing(), 0.0)):
+        assert close_loop(motion, blend) is motion
+
+
+def test_the_blend_is_capped_at_half_the_clip():
+    closed = close_loop(_swing(), blend_s=10.0)
+    assert wrap_mismatch(closed).max() < 1e-6
+    change = _angles(_swing().joint_rot, closed.joint_rot).max(axis=1)
+    assert change[30] < 1e-9  # the middle frame (1.0 s) still untouched
