@@ -24,7 +24,7 @@ COMPONENT_MEAN: Baseline
 NONE: Baseline
 
 class CreateJobRequest(_message.Message):
-    __slots__ = ("job_id", "state_dim", "num_components", "phases", "initial_means_f64", "initial_stds_f64", "reference_states_f32", "reference_phases", "step_size", "episodes_per_update", "max_step_fraction", "min_std", "baseline", "update_rule")
+    __slots__ = ("job_id", "state_dim", "num_components", "phases", "initial_means_f64", "initial_stds_f64", "reference_states_f32", "reference_phases", "step_size", "episodes_per_update", "max_step_fraction", "min_std", "baseline", "update_rule", "fall_weighting")
     JOB_ID_FIELD_NUMBER: _ClassVar[int]
     STATE_DIM_FIELD_NUMBER: _ClassVar[int]
     NUM_COMPONENTS_FIELD_NUMBER: _ClassVar[int]
@@ -39,6 +39,7 @@ class CreateJobRequest(_message.Message):
     MIN_STD_FIELD_NUMBER: _ClassVar[int]
     BASELINE_FIELD_NUMBER: _ClassVar[int]
     UPDATE_RULE_FIELD_NUMBER: _ClassVar[int]
+    FALL_WEIGHTING_FIELD_NUMBER: _ClassVar[int]
     job_id: str
     state_dim: int
     num_components: int
@@ -53,7 +54,8 @@ class CreateJobRequest(_message.Message):
     min_std: float
     baseline: Baseline
     update_rule: str
-    def __init__(self, job_id: _Optional[str] = ..., state_dim: _Optional[int] = ..., num_components: _Optional[int] = ..., phases: _Optional[_Iterable[float]] = ..., initial_means_f64: _Optional[bytes] = ..., initial_stds_f64: _Optional[bytes] = ..., reference_states_f32: _Optional[bytes] = ..., reference_phases: _Optional[_Iterable[float]] = ..., step_size: _Optional[float] = ..., episodes_per_update: _Optional[int] = ..., max_step_fraction: _Optional[float] = ..., min_std: _Optional[float] = ..., baseline: _Optional[_Union[Baseline, str]] = ..., update_rule: _Optional[str] = ...) -> None: ...
+    fall_weighting: float
+    def __init__(self, job_id: _Optional[str] = ..., state_dim: _Optional[int] = ..., num_components: _Optional[int] = ..., phases: _Optional[_Iterable[float]] = ..., initial_means_f64: _Optional[bytes] = ..., initial_stds_f64: _Optional[bytes] = ..., reference_states_f32: _Optional[bytes] = ..., reference_phases: _Optional[_Iterable[float]] = ..., step_size: _Optional[float] = ..., episodes_per_update: _Optional[int] = ..., max_step_fraction: _Optional[float] = ..., min_std: _Optional[float] = ..., baseline: _Optional[_Union[Baseline, str]] = ..., update_rule: _Optional[str] = ..., fall_weighting: _Optional[float] = ...) -> None: ...
 
 class JobInfo(_message.Message):
     __slots__ = ("job_id", "version", "created", "state_dim", "num_components", "num_reference_frames")
@@ -98,18 +100,20 @@ class SampleReply(_message.Message):
     def __init__(self, states_f32: _Optional[bytes] = ..., phases: _Optional[_Iterable[float]] = ..., components: _Optional[_Iterable[int]] = ..., frames: _Optional[_Iterable[int]] = ..., version: _Optional[int] = ...) -> None: ...
 
 class ReportRequest(_message.Message):
-    __slots__ = ("job_id", "initial_states_f32", "components", "returns", "policy_version")
+    __slots__ = ("job_id", "initial_states_f32", "components", "returns", "policy_version", "fell")
     JOB_ID_FIELD_NUMBER: _ClassVar[int]
     INITIAL_STATES_F32_FIELD_NUMBER: _ClassVar[int]
     COMPONENTS_FIELD_NUMBER: _ClassVar[int]
     RETURNS_FIELD_NUMBER: _ClassVar[int]
     POLICY_VERSION_FIELD_NUMBER: _ClassVar[int]
+    FELL_FIELD_NUMBER: _ClassVar[int]
     job_id: str
     initial_states_f32: bytes
     components: _containers.RepeatedScalarFieldContainer[int]
     returns: _containers.RepeatedScalarFieldContainer[float]
     policy_version: int
-    def __init__(self, job_id: _Optional[str] = ..., initial_states_f32: _Optional[bytes] = ..., components: _Optional[_Iterable[int]] = ..., returns: _Optional[_Iterable[float]] = ..., policy_version: _Optional[int] = ...) -> None: ...
+    fell: _containers.RepeatedScalarFieldContainer[bool]
+    def __init__(self, job_id: _Optional[str] = ..., initial_states_f32: _Optional[bytes] = ..., components: _Optional[_Iterable[int]] = ..., returns: _Optional[_Iterable[float]] = ..., policy_version: _Optional[int] = ..., fell: _Optional[_Iterable[bool]] = ...) -> None: ...
 
 class ReportReply(_message.Message):
     __slots__ = ("accepted", "version", "updated", "pending_episodes")
@@ -130,7 +134,7 @@ class GetDistributionRequest(_message.Message):
     def __init__(self, job_id: _Optional[str] = ...) -> None: ...
 
 class Distribution(_message.Message):
-    __slots__ = ("means_f64", "stds_f64", "phases", "version", "pending_episodes", "state_dim", "num_components", "policy_version", "step_size", "episodes_per_update", "max_step_fraction", "min_std", "baseline", "update_rule")
+    __slots__ = ("means_f64", "stds_f64", "phases", "version", "pending_episodes", "state_dim", "num_components", "policy_version", "step_size", "episodes_per_update", "max_step_fraction", "min_std", "baseline", "update_rule", "component_weights", "fall_rates", "fall_weighting")
     MEANS_F64_FIELD_NUMBER: _ClassVar[int]
     STDS_F64_FIELD_NUMBER: _ClassVar[int]
     PHASES_FIELD_NUMBER: _ClassVar[int]
@@ -145,6 +149,9 @@ class Distribution(_message.Message):
     MIN_STD_FIELD_NUMBER: _ClassVar[int]
     BASELINE_FIELD_NUMBER: _ClassVar[int]
     UPDATE_RULE_FIELD_NUMBER: _ClassVar[int]
+    COMPONENT_WEIGHTS_FIELD_NUMBER: _ClassVar[int]
+    FALL_RATES_FIELD_NUMBER: _ClassVar[int]
+    FALL_WEIGHTING_FIELD_NUMBER: _ClassVar[int]
     means_f64: bytes
     stds_f64: bytes
     phases: _containers.RepeatedScalarFieldContainer[float]
@@ -159,4 +166,7 @@ class Distribution(_message.Message):
     min_std: float
     baseline: Baseline
     update_rule: str
-    def __init__(self, means_f64: _Optional[bytes] = ..., stds_f64: _Optional[bytes] = ..., phases: _Optional[_Iterable[float]] = ..., version: _Optional[int] = ..., pending_episodes: _Optional[int] = ..., state_dim: _Optional[int] = ..., num_components: _Optional[int] = ..., policy_version: _Optional[int] = ..., step_size: _Optional[float] = ..., episodes_per_update: _Optional[int] = ..., max_step_fraction: _Optional[float] = ..., min_std: _Optional[float] = ..., baseline: _Optional[_Union[Baseline, str]] = ..., update_rule: _Optional[str] = ...) -> None: ...
+    component_weights: _containers.RepeatedScalarFieldContainer[float]
+    fall_rates: _containers.RepeatedScalarFieldContainer[float]
+    fall_weighting: float
+    def __init__(self, means_f64: _Optional[bytes] = ..., stds_f64: _Optional[bytes] = ..., phases: _Optional[_Iterable[float]] = ..., version: _Optional[int] = ..., pending_episodes: _Optional[int] = ..., state_dim: _Optional[int] = ..., num_components: _Optional[int] = ..., policy_version: _Optional[int] = ..., step_size: _Optional[float] = ..., episodes_per_update: _Optional[int] = ..., max_step_fraction: _Optional[float] = ..., min_std: _Optional[float] = ..., baseline: _Optional[_Union[Baseline, str]] = ..., update_rule: _Optional[str] = ..., component_weights: _Optional[_Iterable[float]] = ..., fall_rates: _Optional[_Iterable[float]] = ..., fall_weighting: _Optional[float] = ...) -> None: ...

@@ -78,7 +78,7 @@ class InitialStateServiceServicer:
 
     def ReportEpisodes(self, request, context):
         """Reports finished episodes (initial state, ASI component, discounted
-        return). Every `episodes_per_update` reported episodes the server takes one
+        return, and whether it fell). Every `episodes_per_update` reported episodes the server takes one
         policy-gradient step on the distribution and increments its version.
         """
         context.set_code(grpc.StatusCode.UNIMPLEMENTED)

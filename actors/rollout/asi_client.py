@@ -57,6 +57,8 @@ class Distribution(NamedTuple):
     version: int
     pending_episodes: int
     update_rule: str = "gradient"
+    weights: np.ndarray | None = None     # (k,) probability of each component in the next ASI draw
+    fall_rates: np.ndarray | None = None  # (k,) running fall rate of each component's episodes
 
 
 class _RetriesExhausted(Exception):
@@ -154,7 +156,8 @@ class ASIClient:
                    initial_means: np.ndarray | None = None, initial_stds: np.ndarray | None = None,
                    step_size: float | None = None, episodes_per_update: int | None = None,
                    max_step_fraction: float | None = None, min_std: float | None = None,
-                   baseline: str = "component_mean", update_rule: str | None = None) -> JobInfo:
+                   baseline: str = "component_mean", update_rule: str | None = None,
+                   fall_weighting: float | None = None) -> JobInfo:
         """Create the job (or resume it: same dims -> its current version, created=False).
 
         reference_states (F, D): the clip's states; defaults follow the paper (means at the
@@ -173,7 +176,8 @@ class ASIClient:
             reference_phases=[] if reference_phases is None else np.asarray(reference_phases, np.float64),
             baseline=BASELINES[baseline])
         for name, value in (("step_size", step_size), ("episodes_per_update", episodes_per_update),
-                            ("max_step_fraction", max_step_fraction), ("min_std", min_std), ("update_rule", update_rule)):
+                            ("max_step_fraction", max_step_fraction), ("min_std", min_std), ("update_rule", update_rule),
+                            ("fall_weighting", fall_weighting)):
             if value is not None:
                 setattr(request, name, value)
         try:
@@ -201,25 +205,30 @@ class ASIClient:
                              reply.version)
 
     def report(self, initial_states: np.ndarray, components: np.ndarray, returns: np.ndarray,
-               policy_version: int | None = None) -> int:
+               policy_version: int | None = None, fell: np.ndarray | None = None) -> int:
         """Report finished episodes; returns the distribution version (the last known one if dropped).
 
+        `fell` (one bool per episode) feeds the server's per-component fall rates; None sends none.
         Rows with component -1 (RSI/FSI samples) carry no ASI gradient and are skipped here.
         """
         components = np.asarray(components, np.int32).reshape(-1)
         returns = np.asarray(returns, np.float64).reshape(-1)
         initial_states = np.asarray(initial_states, np.float32)
-        if initial_states.ndim != 2 or not initial_states.shape[0] == components.shape[0] == returns.shape[0]:
+        fell = None if fell is None else np.asarray(fell, bool).reshape(-1)
+        if initial_states.ndim != 2 or not initial_states.shape[0] == components.shape[0] == returns.shape[0] or \
+                (fell is not None and fell.shape[0] != components.shape[0]):
             raise SfvError(f"asi report {self.job_id!r}: initial_states {initial_states.shape}, components "
-                           f"{components.shape} and returns {returns.shape} must have one row per episode")
+                           f"{components.shape}, returns {returns.shape} and fell must have one row per episode")
         keep = components >= 0
         if not np.all(keep):
             initial_states, components, returns = initial_states[keep], components[keep], returns[keep]
+            fell = None if fell is None else fell[keep]
         for start in range(0, components.shape[0], REPORT_CHUNK):
             stop = start + REPORT_CHUNK
             request = asi_pb2.ReportRequest(
                 job_id=self.job_id, initial_states_f32=np.ascontiguousarray(initial_states[start:stop], "<f4").tobytes(),
-                components=components[start:stop], returns=returns[start:stop])
+                components=components[start:stop], returns=returns[start:stop],
+                fell=[] if fell is None else fell[start:stop])
             if policy_version is not None:
                 request.policy_version = policy_version
             try:
@@ -241,7 +250,11 @@ class ASIClient:
             raise self._fail("get_distribution", exc) from None
         shape = (reply.num_components, reply.state_dim)
         self._last_version = reply.version
+        k = reply.num_components
+        # A server from before fall weighting sends neither: its draws are uniform and no rate is kept.
+        weights = np.asarray(reply.component_weights, np.float64) if reply.component_weights else np.full(k, 1.0 / k)
+        fall_rates = np.asarray(reply.fall_rates, np.float64) if reply.fall_rates else np.zeros(k)
         return Distribution(np.frombuffer(reply.means_f64, "<f8").reshape(shape).copy(),
                             np.frombuffer(reply.stds_f64, "<f8").reshape(shape).copy(),
                             np.asarray(reply.phases, np.float64), reply.version, reply.pending_episodes,
-                            reply.update_rule or "gradient")
+                            reply.update_rule or "gradient", weights, fall_rates)

@@ -144,7 +144,8 @@ class RolloutWorker:
             batch["truncated"][t] = truncated
         episodes = env.episodes.drain()
         if self.client is not None and self.spec.init == "asi" and len(episodes["components"]):
-            self.asi_version = self.client.report(episodes["initial_states"], episodes["components"], episodes["discounted_returns"], policy_version)
+            self.asi_version = self.client.report(episodes["initial_states"], episodes["components"], episodes["discounted_returns"],
+                                                  policy_version, fell=episodes["fell"])
         batch.update({f"episode_{k}": v for k, v in episodes.items() if k != "initial_states"})
         batch["policy_version"] = np.array(policy_version)
         batch["worker_index"] = np.array(self.worker_index)

@@ -21,6 +21,20 @@ variate: returns differ strongly along the motion, so a single global baseline
 would push every component toward or away from the phases that are easy anyway);
 Baseline "none" uses b = 0 as in Algorithm 1.
 
+Under failure-weighted sampling (fall_weighting beta > 0, services/asi/fall_weights.py) the
+components are drawn with q_c != 1/k, and that mean no longer estimates grad J: its
+component-c part sums n_c ~ q_c N episodes, so it estimates sum_c q_c grad_c E_c[R], each
+component's step scaled by k q_c -- the often-failing phases would also move k q_c times
+faster, and a phase drawn at the floor (1 - beta)/k would all but freeze. The per-component
+baseline does not mend this: it keeps each component's direction unbiased
+(E_c[grad log N_c] = 0 for any q), not its scale. So with beta > 0 each component's sum is
+importance-weighted back to the paper's p(phi) = 1/k, with the weight its batch share gives:
+    grad = sum_c (1/k) (1/n_c) sum_{e in c} grad log rho(s_e) (R_e - b_c)
+(self-normalised per component, so it needs no record of the q each episode was drawn
+with, which changes as the fall rates do; unbiased given n_c > 0, and the beta < 1 floor
+makes n_c = 0 vanishingly rare at 2000 episodes). beta = 0 keeps the (1/N) form bit for bit.
+The natural rule already averages within each component, so it is unaffected by q.
+
 Safeguards (switchable, documented in services/asi/README.md):
 - max_step_fraction f > 0 clips every coordinate of the mean step to |d mu| <= f * sigma
   and of the log-std step to |d log sigma| <= f (sigma changes by at most a factor e^f).
@@ -48,6 +62,7 @@ class UpdateConfig:
     min_std: float = field(default=1e-3, metadata={"help": "floor on every standard deviation"})
     baseline: str = field(default="component_mean", metadata={"help": "'component_mean' or 'none'"})
     rule: str = field(default="gradient", metadata={"help": "'gradient': the paper's step (alpha 0.001); 'natural': advantages normalised over the batch and the Fisher-preconditioned step per component, so alpha is the step in units of sigma (e.g. 0.1; see natural_step)"})
+    fall_weighting: float = field(default=0.0, metadata={"help": "beta in [0, 1]: components drawn with p_c = (1 - beta)/k + beta f_c / sum f, f_c the running fall rate of component c's episodes; 0 = the paper's uniform p(phi) (services/asi/fall_weights.py)"})
 
 
 @dataclass(frozen=True)
@@ -94,12 +109,17 @@ class InitialStateDistribution:
         stds = np.broadcast_to(reference_std(reference_states, min_std), means.shape)
         return cls(phases, means, np.log(stds))
 
-    def sample(self, rng: np.random.Generator, count: int) -> tuple[np.ndarray, np.ndarray]:
-        """Draw `count` states: component uniform over k, then the component's Gaussian.
+    def sample(self, rng: np.random.Generator, count: int,
+               weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Draw `count` states: a component (uniform over k, or with probabilities `weights`),
+        then the component's Gaussian.
 
         Returns (states (count, D) float32, components (count,) int32).
         """
-        components = rng.integers(self.num_components, size=count).astype(np.int32)
+        if weights is None:
+            components = rng.integers(self.num_components, size=count).astype(np.int32)
+        else:
+            components = rng.choice(self.num_components, size=count, p=weights).astype(np.int32)
         # Drawn and shifted in float32, the output dtype: no float64 copy of a (count, D) batch.
         states = rng.standard_normal((count, self.state_dim), dtype=np.float32)
         states *= self.stds.astype(np.float32)[components]
@@ -115,8 +135,9 @@ class InitialStateDistribution:
         return log_normal - np.log(self.num_components)
 
     def gradient(self, states: np.ndarray, components: np.ndarray, returns: np.ndarray,
-                 baseline: str = "component_mean") -> Gradient:
-        """(1/N) sum_e grad log rho(s_e) * (R_e - b_{c_e}) for means and log-stds."""
+                 baseline: str = "component_mean", per_component: bool = False) -> Gradient:
+        """(1/N) sum_e grad log rho(s_e) * (R_e - b_{c_e}) for means and log-stds; with
+        `per_component` each component's sum over (k n_c) instead (non-uniform draws, see above)."""
         states = np.asarray(states, dtype=np.float64)
         components = np.asarray(components, dtype=np.intp)
         returns = np.asarray(returns, dtype=np.float64)
@@ -130,6 +151,8 @@ class InitialStateDistribution:
         grad_log_stds = np.zeros_like(self.log_stds)
         np.add.at(grad_means, components, weighted_z * inv_sigma)
         np.add.at(grad_log_stds, components, weighted_z * z - advantages[:, None])
+        if per_component:
+            n = self.num_components * np.maximum(np.bincount(components, minlength=self.num_components), 1)[:, None]
         return Gradient(grad_means / n, grad_log_stds / n)
 
     def natural_step(self, states: np.ndarray, components: np.ndarray, returns: np.ndarray,
@@ -172,7 +195,7 @@ class InitialStateDistribution:
             if config.rule == "natural":
                 step = self.natural_step(states, components, returns, config.baseline)
             else:
-                step = self.gradient(states, components, returns, config.baseline)
+                step = self.gradient(states, components, returns, config.baseline, per_component=config.fall_weighting > 0)
             step_means = config.step_size * step.means
             step_log_stds = config.step_size * step.log_stds
         if config.max_step_fraction > 0:

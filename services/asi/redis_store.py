@@ -6,9 +6,13 @@ Keys per job (binary values are little-endian raw numbers):
   sfv:asi:{job}:pending     list of EpisodeBatch chunks (one per report), oldest first
   sfv:asi:{job}:pending_n   number of episodes in the pending list
   sfv:asi:{job}:policy      latest reported policy_version
+  sfv:asi:{job}:falls       FallStats (<f8, 2k: decayed falls, decayed episodes); absent until a flag is reported
   sfv:asi:jobs              set of job ids
 
 Reports only RPUSH to the tail of the pending list (atomically with INCRBY of the count).
+A report carrying fall flags does so in a MULTI/EXEC guarded by WATCH on the falls key,
+which also writes the updated FallStats: the read-modify-write of the decayed counts never
+loses a concurrent report's flags, and the append and its flags land together or not at all.
 An update reads the oldest chunks, and in one MULTI/EXEC guarded by WATCH on the job hash
 writes the new parameters and version, trims the used chunks and puts any leftover back
 at the head. Only updaters write the job hash, so two servers sharing one Redis never
@@ -29,6 +33,7 @@ from redis.retry import Retry
 
 from learner.errors import SfvError
 from services.asi.distribution import UpdateConfig
+from services.asi.fall_weights import FallStats
 from services.asi.store import ASIStore, EpisodeBatch, JobParams, JobSpec, ReportOutcome, StoreUnavailable, TooManyJobs, gradient_step
 
 log = logging.getLogger(__name__)
@@ -100,6 +105,10 @@ class RedisStore(ASIStore):
         base = f"sfv:asi:{job_id}"
         return base, f"{base}:reference", f"{base}:pending", f"{base}:pending_n", f"{base}:policy"
 
+    @staticmethod
+    def _falls_key(job_id: str) -> str:
+        return f"sfv:asi:{job_id}:falls"
+
     def _update_lock(self, job_id: str) -> threading.Lock:
         with self._locks_guard:
             return self._update_locks.setdefault(job_id, threading.Lock())
@@ -119,7 +128,7 @@ class RedisStore(ASIStore):
                             pipe.unwatch()
                             raise TooManyJobs(f"redis ASI store {self.safe_url}: already holds {self.max_jobs} jobs")
                         pipe.multi()
-                        pipe.delete(ref, pending, pending_n, policy)
+                        pipe.delete(ref, pending, pending_n, policy, self._falls_key(spec.job_id))
                         pipe.hset(ref, mapping={
                             "states": np.ascontiguousarray(spec.reference_states, "<f4").tobytes(),
                             "phases": np.ascontiguousarray(spec.reference_phases, "<f8").tobytes(),
@@ -163,24 +172,25 @@ class RedisStore(ASIStore):
                 pipe.hmget(main, "phases", "means", "log_stds", "version")
                 pipe.get(pending_n)
                 pipe.get(policy)
-                (phases, means, log_stds, version), pending, policy_version = pipe.execute()
+                pipe.get(self._falls_key(job_id))
+                (phases, means, log_stds, version), pending, policy_version, falls = pipe.execute()
         except redis.RedisError as exc:
             raise self._unavailable(exc) from None
         if means is None:
             return None
-        shape = (len(phases) // 8, -1)
-        return JobParams(_f64(means, shape), _f64(log_stds, shape), int(version), int(pending or 0),
-                         None if policy_version is None else int(policy_version))
+        k = len(phases) // 8
+        return JobParams(_f64(means, (k, -1)), _f64(log_stds, (k, -1)), int(version), int(pending or 0),
+                         None if policy_version is None else int(policy_version),
+                         None if falls is None else FallStats.from_bytes(falls, k))
 
-    def report(self, spec, batch, policy_version):
-        _, _, pending, pending_n, policy = self._keys(spec.job_id)
+    def report(self, spec, batch, policy_version, fell=None):
         try:
-            with self._redis.pipeline(transaction=True) as pipe:
-                pipe.rpush(pending, batch.to_bytes())
-                pipe.incrby(pending_n, len(batch))
-                if policy_version is not None:
-                    pipe.set(policy, policy_version)
-                total = pipe.execute()[1]
+            if fell is None:
+                with self._redis.pipeline(transaction=True) as pipe:
+                    self._queue_append(pipe, spec.job_id, batch, policy_version)
+                    total = pipe.execute()[1]
+            else:
+                total = self._append_with_falls(spec, batch, policy_version, fell)
             updated = False
             if total >= spec.config.episodes_per_update:
                 with self._update_lock(spec.job_id):
@@ -190,6 +200,32 @@ class RedisStore(ASIStore):
         except redis.RedisError as exc:
             raise self._unavailable(exc) from None
         return ReportOutcome(params.version, updated, params.pending_episodes)
+
+    def _queue_append(self, pipe, job_id: str, batch: EpisodeBatch, policy_version: int | None) -> None:
+        """Queue the report's append on `pipe`; its second reply is the new pending count."""
+        _, _, pending, pending_n, policy = self._keys(job_id)
+        pipe.rpush(pending, batch.to_bytes())
+        pipe.incrby(pending_n, len(batch))
+        if policy_version is not None:
+            pipe.set(policy, policy_version)
+
+    def _append_with_falls(self, spec: JobSpec, batch: EpisodeBatch, policy_version: int | None,
+                           fell: np.ndarray) -> int:
+        """The append and the fall statistics' update in one transaction; returns the pending count."""
+        falls_key = self._falls_key(spec.job_id)
+        with self._redis.pipeline() as pipe:
+            for _ in range(_MAX_WATCH_RETRIES):
+                try:
+                    pipe.watch(falls_key)
+                    stats = FallStats.from_bytes(pipe.get(falls_key), spec.num_components)
+                    pipe.multi()
+                    self._queue_append(pipe, spec.job_id, batch, policy_version)
+                    pipe.set(falls_key, stats.updated(batch.components, fell).to_bytes())
+                    return pipe.execute()[1]
+                except redis.WatchError:
+                    continue
+        raise StoreUnavailable(f"redis at {self.safe_url}: job {spec.job_id!r}: fall statistics kept conflicting "
+                               f"with other reports ({_MAX_WATCH_RETRIES} tries); retry")
 
     def _try_update(self, spec: JobSpec) -> bool:
         """One gradient step if a full batch is pending; False if not (or if it kept conflicting)."""

@@ -33,6 +33,7 @@ from services.asi.distribution import (
     nearest_frames,
     reference_std,
 )
+from services.asi.fall_weights import component_weights, sampling_weights
 from services.asi.store import ASIStore, EpisodeBatch, InMemoryStore, JobSpec, StoreUnavailable, TooManyJobs
 
 log = logging.getLogger(__name__)
@@ -220,7 +221,10 @@ class InitialStateServicer(asi_pb2_grpc.InitialStateServiceServicer):
         rule = request.update_rule if request.HasField("update_rule") else defaults.rule
         if rule not in UPDATE_RULES:
             raise _invalid(f"update_rule {rule[:40]!r} unknown; expected one of {', '.join(UPDATE_RULES)}")
-        return UpdateConfig(float(step_size), int(per_update), float(fraction), float(min_std), baseline, rule)
+        beta = request.fall_weighting if request.HasField("fall_weighting") else defaults.fall_weighting
+        if not 0.0 <= beta <= 1.0:  # NaN fails too
+            raise _invalid(f"fall_weighting {beta} must lie in [0, 1] (0: uniform components)")
+        return UpdateConfig(float(step_size), int(per_update), float(fraction), float(min_std), baseline, rule, float(beta))
 
     # --- SampleInitialStates -----------------------------------------------------------------
     @_handled
@@ -234,7 +238,9 @@ class InitialStateServicer(asi_pb2_grpc.InitialStateServiceServicer):
         rng = np.random.default_rng(request.seed if request.HasField("seed") else None)
         params = self._params(spec.job_id)
         if request.mode == asi_pb2.ASI:
-            states, components = InitialStateDistribution(spec.phases, params.means, params.log_stds).sample(rng, count)
+            weights = sampling_weights(params.fall_rates(), spec.config.fall_weighting)
+            states, components = InitialStateDistribution(spec.phases, params.means, params.log_stds).sample(
+                rng, count, weights)
             phases = spec.phases[components]
             frames = np.full(count, -1, np.int32)
         else:
@@ -260,12 +266,22 @@ class InitialStateServicer(asi_pb2_grpc.InitialStateServiceServicer):
         if np.any((components < 0) | (components >= spec.num_components)):
             raise _invalid(f"components must lie in [0, {spec.num_components}) (RSI/FSI samples carry no component)")
         policy_version = request.policy_version if request.HasField("policy_version") else None
-        outcome = self.store.report(spec, EpisodeBatch(states, components, returns), policy_version)
+        fell = self._fell(request, n)
+        outcome = self.store.report(spec, EpisodeBatch(states, components, returns), policy_version, fell)
         if outcome.updated:
             log.info("asi job %s: now version %d, %d episodes pending", spec.job_id, outcome.version,
                      outcome.pending_episodes)
         return asi_pb2.ReportReply(accepted=n, version=outcome.version, updated=outcome.updated,
                                    pending_episodes=outcome.pending_episodes)
+
+    @staticmethod
+    def _fell(request, n: int) -> np.ndarray | None:
+        """The episodes' fall flags; None when the client sent none (an older client)."""
+        if not request.fell:
+            return None
+        if len(request.fell) != n:
+            raise _invalid(f"fell: {len(request.fell)} flags for {n} episodes (one per episode, or none)")
+        return np.asarray(request.fell, bool)
 
     # --- GetDistribution ---------------------------------------------------------------------
     @_handled
@@ -279,7 +295,9 @@ class InitialStateServicer(asi_pb2_grpc.InitialStateServiceServicer):
             phases=spec.phases, version=params.version, pending_episodes=params.pending_episodes,
             state_dim=spec.state_dim, num_components=spec.num_components, step_size=config.step_size,
             episodes_per_update=config.episodes_per_update, max_step_fraction=config.max_step_fraction,
-            min_std=config.min_std, baseline=BASELINE_ENUMS[config.baseline], update_rule=config.rule)
+            min_std=config.min_std, baseline=BASELINE_ENUMS[config.baseline], update_rule=config.rule,
+            component_weights=component_weights(params.fall_rates(), config.fall_weighting),
+            fall_rates=params.fall_rates(), fall_weighting=config.fall_weighting)
         if params.policy_version is not None:
             reply.policy_version = params.policy_version
         return reply

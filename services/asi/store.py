@@ -1,9 +1,10 @@
 """Where ASI jobs live: the store interface, its record types and the in-process store.
 
 A store owns each job's immutable spec (config, phases, reference table) and its
-mutable state (means, log-stds, version, pending report buffer). `report` appends
-episodes and, every `episodes_per_update` of them, takes one gradient step
-atomically, so concurrent reports never lose or double-use an episode.
+mutable state (means, log-stds, version, pending report buffer, per-component fall
+statistics). `report` appends episodes (and folds their fall flags into the statistics)
+and, every `episodes_per_update` of them, takes one gradient step atomically, so
+concurrent reports never lose or double-use an episode.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import numpy as np
 
 from learner.errors import SfvError
 from services.asi.distribution import InitialStateDistribution, UpdateConfig
+from services.asi.fall_weights import FallStats
 
 log = logging.getLogger(__name__)
 
@@ -61,6 +63,11 @@ class JobParams:
     version: int
     pending_episodes: int
     policy_version: int | None = None
+    fall_stats: FallStats | None = None  # None: no episode has reported a fall flag yet
+
+    def fall_rates(self) -> np.ndarray:
+        """Running fall rate per component (zeros before any flag was reported)."""
+        return (self.fall_stats or FallStats.empty(self.means.shape[0])).rates
 
 
 @dataclass(frozen=True)
@@ -143,8 +150,10 @@ class ASIStore(ABC):
         """The job's current parameters, or None for an unknown job."""
 
     @abstractmethod
-    def report(self, spec: JobSpec, batch: EpisodeBatch, policy_version: int | None) -> ReportOutcome:
-        """Append episodes; take one gradient step per full batch of episodes_per_update."""
+    def report(self, spec: JobSpec, batch: EpisodeBatch, policy_version: int | None,
+               fell: np.ndarray | None = None) -> ReportOutcome:
+        """Append episodes; take one gradient step per full batch of episodes_per_update.
+        `fell` (n,) bool updates the fall statistics in the same atomic step; None leaves them."""
 
     def close(self) -> None:
         """Release connections."""
@@ -157,12 +166,14 @@ class _MemoryJob:
         self.log_stds = log_stds
         self.version = 0
         self.policy_version: int | None = None
+        self.fall_stats: FallStats | None = None
         self.pending: list[EpisodeBatch] = []
         self.pending_count = 0
         self.lock = threading.Lock()
 
     def snapshot(self) -> JobParams:
-        return JobParams(self.means, self.log_stds, self.version, self.pending_count, self.policy_version)
+        return JobParams(self.means, self.log_stds, self.version, self.pending_count, self.policy_version,
+                         self.fall_stats)
 
 
 class InMemoryStore(ASIStore):
@@ -196,7 +207,7 @@ class InMemoryStore(ASIStore):
         with job.lock:
             return job.snapshot()
 
-    def report(self, spec, batch, policy_version):
+    def report(self, spec, batch, policy_version, fell=None):
         job = self._jobs[spec.job_id]
         per_update = spec.config.episodes_per_update
         updated = False
@@ -205,6 +216,8 @@ class InMemoryStore(ASIStore):
             job.pending_count += len(batch)
             if policy_version is not None:
                 job.policy_version = policy_version
+            if fell is not None:
+                job.fall_stats = (job.fall_stats or FallStats.empty(spec.num_components)).updated(batch.components, fell)
             while job.pending_count >= per_update:
                 used, rest = EpisodeBatch.concatenate(job.pending).split(per_update)
                 job.means, job.log_stds = gradient_step(spec, job.means, job.log_stds, used)

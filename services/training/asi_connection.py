@@ -67,6 +67,7 @@ class ASIConnection:
         return self.client.create_job(
             reference_states, reference_phases, num_components=c.asi_components, initial_stds=stds,
             step_size=c.asi_step_size, episodes_per_update=c.asi_episodes_per_update, update_rule=c.asi_update_rule,
+            fall_weighting=c.asi_fall_weighting or None,  # 0: the request the server has always seen
         )
 
     def __exit__(self, *exc) -> None:

@@ -33,6 +33,7 @@ class TrainConfig:
     asi_initial_std_scale: float = field(default=0.1, metadata={"help": "initial std of every ASI component = this x the clip's per-dimension sample std (paper: 1). Measured with a trained walk policy over the first 2 s (services/bench/scripts/asi_start_spread.py): RSI reward/step .93, no falls; ASI at 1: .53, 57 in 100 starts fall (rotvec), 59 (qpos); 0.5: .76, 28; 0.25: .91, 5; 0.1: .94, 0. The fast clips' velocity spreads are 2-3x the walk's: control steps survived under pure PD tracking from 30 starts (services/bench/scripts/pd_tracking.py), reference / 0.1 / 0.25: dance_a 31 / 32 / 29, spinkick 29 / 28 / 26, backflip 29 / 29 / 25, cartwheel 46 / 45 / 35"})
     asi_step_size: float = field(default=0.001, metadata={"help": "ASI step size alpha_rho (paper: 0.001 with --asi-update-rule gradient; with natural it is the step in units of sigma, e.g. 0.1)"})
     asi_update_rule: str = field(default="gradient", metadata={"choices": ("gradient", "natural"), "help": "ASI's update: gradient (the paper's step: it grows as 1/sigma^2 and with the returns' scale; asi/mean_shift_sigma in the metrics says how far it moved) or natural (normalised advantages, Fisher-preconditioned: services/asi/distribution.py natural_step)"})
+    asi_fall_weighting: float = field(default=0.0, metadata={"help": "beta in [0, 1]: ASI draws component c with p = (1 - beta)/k + beta f_c / sum f, f_c the running fall rate of c's episodes (start more episodes where they fall, as ProtoMotions/PHC weight motions); 0 = the paper's uniform p(phi). Not yet measured on minutes-to-skill, so off; asi/weight_max and asi/fall_rate/<c> in the metrics show where starts go"})
     job_id: str | None = field(default=None, metadata={"help": "ASI job id; derived from the run directory when absent"})
     checkpoint_every: int = field(default=10, metadata={"help": "iterations between checkpoints (and at the end)"})
     keep_checkpoints: int = field(default=3, metadata={"help": "newest checkpoints kept on disk"})
@@ -69,6 +70,8 @@ class TrainConfig:
                 raise SfvError(f"--{name.replace('_', '-')} must be positive, got {getattr(self, name)}")
         if self.asi_update_rule not in ("gradient", "natural"):
             raise SfvError(f"--asi-update-rule must be gradient or natural, got {self.asi_update_rule!r}")
+        if not 0.0 <= self.asi_fall_weighting <= 1.0:
+            raise SfvError(f"--asi-fall-weighting must lie in [0, 1], got {self.asi_fall_weighting}")
         if self.asi_tls_ca and not self.asi_address:
             raise SfvError("--asi-tls-ca needs --asi-address: the embedded ASI server does not serve TLS")
         try:

@@ -329,7 +329,9 @@ class Trainer:
 class ASIDrift:
     """How far ASI's Gaussians have moved from where this process first saw them: after each new
     distribution version, `asi/mean_shift_sigma` (mean over components and dimensions of
-    |mu - mu_0| / sigma_0) and `asi/std_ratio` (mean sigma / sigma_0). One RPC per new version."""
+    |mu - mu_0| / sigma_0) and `asi/std_ratio` (mean sigma / sigma_0); where starts go:
+    `asi/weight_max` (largest component probability, 1/k when uniform) and `asi/fall_rate/<c>`.
+    One RPC per new version."""
 
     def __init__(self, client):
         self.client = client
@@ -348,7 +350,9 @@ class ASIDrift:
         if self.first is None:
             self.first = dist
         shift = np.abs(dist.means - self.first.means) / self.first.stds
-        return {"asi/mean_shift_sigma": float(shift.mean()), "asi/std_ratio": float((dist.stds / self.first.stds).mean())}
+        return {"asi/mean_shift_sigma": float(shift.mean()), "asi/std_ratio": float((dist.stds / self.first.stds).mean()),
+                "asi/weight_max": float(dist.weights.max()),
+                **{f"asi/fall_rate/{c}": float(rate) for c, rate in enumerate(dist.fall_rates)}}
 
 
 def fall_cause_shares(causes: np.ndarray | None, character=HUMANOID3D) -> dict:

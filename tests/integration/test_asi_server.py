@@ -137,7 +137,8 @@ def bad_requests():
         dict(initial_stds_f64=(-np.ones(D)).tobytes()), dict(initial_stds_f64=np.ones(D + 1).tobytes()),
         dict(step_size=float("nan")), dict(step_size=-1.0), dict(episodes_per_update=0),
         dict(episodes_per_update=10**9), dict(max_step_fraction=-0.1), dict(min_std=0.0), dict(baseline=7),
-        dict(update_rule="adam"),
+        dict(update_rule="adam"), dict(fall_weighting=-0.1), dict(fall_weighting=1.5),
+        dict(fall_weighting=float("nan")),
     ]
     cases = [("CreateJob", create_request(**{"job_id": "bad", **c}), INVALID) for c in create]
     cases += [
@@ -156,6 +157,7 @@ def bad_requests():
         ("ReportEpisodes", report_request(returns=[0.0, 1.0, float("nan"), 2.0]), INVALID),
         ("ReportEpisodes", report_request(returns=[0.0, 1.0, float("inf"), 2.0]), INVALID),
         ("ReportEpisodes", report_request(returns=[0.0, 1.0]), INVALID),
+        ("ReportEpisodes", report_request(fell=[True, False]), INVALID),
         ("GetDistribution", asi_pb2.GetDistributionRequest(job_id="ghost"), NOT_FOUND),
         ("GetDistribution", asi_pb2.GetDistributionRequest(job_id=""), INVALID),
     ]

@@ -154,3 +154,37 @@ def test_natural_step_is_scale_free_and_matches_hand_computation():
     assert not flat.means.any() and not flat.log_stds.any()  # no information, no step
     moved = hand_case().apply_update(STATES, COMPONENTS, RETURNS, UpdateConfig(step_size=0.1, max_step_fraction=0.0, rule="natural"))
     np.testing.assert_allclose(moved.means - MEANS, 0.1 * step.means, atol=1e-12)
+
+
+def test_per_component_gradient_divides_each_component_by_k_times_its_count():
+    # Sums over the hand case's episodes: row 0 (2 episodes) d mu (2, 1/2), d log sigma (0, 1); row 1 zero.
+    grad = hand_case().gradient(STATES, COMPONENTS, RETURNS, "component_mean", per_component=True)
+    np.testing.assert_allclose(grad.means, [[2 / 4, 0.5 / 4], [0, 0]], atol=1e-15)
+    np.testing.assert_allclose(grad.log_stds, [[0, 1 / 4], [0, 0]], atol=1e-15)
+
+
+def test_beta_zero_keeps_the_papers_mean_over_all_episodes():
+    config = UpdateConfig(step_size=0.1, max_step_fraction=0.0)
+    after = hand_case().apply_update(STATES, COMPONENTS, RETURNS, config)
+    grad = hand_case().gradient(STATES, COMPONENTS, RETURNS)
+    np.testing.assert_array_equal(after.means, MEANS + 0.1 * grad.means)
+
+
+def test_weighted_sampling_still_steps_each_component_toward_higher_return_at_the_uniform_rate():
+    """Known answer: D = 1, k = 2, sigma = 1; component 0's return is 2 s, component 1's is -s.
+    With R - b = a sigma (z - zbar), E[z / sigma (R - b)] = a, so the paper's uniform draw
+    (n_c = N/2) steps mu_c by alpha a / k: +1 alpha for component 0, -0.5 alpha for component 1.
+    Here component 0 gets only 10 % of the episodes (failure-weighted draws went elsewhere):
+    the importance-weighted step keeps +1 and -0.5 (standard errors .03 and .01; tolerance
+    5 of them), where the unweighted (1/N) mean would step component 0 by only .1 x 2 = .2."""
+    rng = np.random.default_rng(11)
+    dist = InitialStateDistribution(np.array([0.0, 0.5]), np.array([[0.0], [5.0]]), np.zeros((2, 1)))
+    components = (rng.random(20000) >= 0.1).astype(np.int64)
+    states = dist.means[components] + rng.standard_normal((20000, 1))
+    returns = np.where(components == 0, 2.0 * states[:, 0], -states[:, 0])
+    config = UpdateConfig(step_size=0.1, max_step_fraction=0.0, fall_weighting=0.5)
+    after = dist.apply_update(states, components, returns, config)
+    step = (after.means - dist.means)[:, 0] / config.step_size
+    assert abs(step[0] - 1.0) < 0.15 and abs(step[1] + 0.5) < 0.05
+    unweighted = dist.gradient(states, components, returns).means[:, 0]
+    assert abs(unweighted[0] - 0.2) < 0.05  # what the weighting corrects

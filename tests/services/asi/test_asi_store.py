@@ -8,17 +8,19 @@ import pytest
 
 from learner.errors import SfvError
 from services.asi.distribution import InitialStateDistribution, UpdateConfig, evenly_spaced_phases
+from services.asi.fall_weights import FallStats
 from services.asi.store import EpisodeBatch, InMemoryStore, JobSpec
 from tests.redis_fixture import redis_server_with_password  # noqa: F401  (fixture)
 
 K, D, FRAMES = 3, 4, 12
 
 
-def make_spec(job_id="job", episodes_per_update=10) -> tuple[JobSpec, np.ndarray, np.ndarray]:
+def make_spec(job_id="job", episodes_per_update=10, fall_weighting=0.0) -> tuple[JobSpec, np.ndarray, np.ndarray]:
     rng = np.random.default_rng(0)
     reference = rng.normal(size=(FRAMES, D)).astype(np.float32)
     ref_phases = np.linspace(0, 1, FRAMES)
-    config = UpdateConfig(step_size=0.05, episodes_per_update=episodes_per_update, max_step_fraction=0.0)
+    config = UpdateConfig(step_size=0.05, episodes_per_update=episodes_per_update, max_step_fraction=0.0,
+                          fall_weighting=fall_weighting)
     dist = InitialStateDistribution.from_reference(reference, ref_phases, K)
     return JobSpec(job_id, config, evenly_spaced_phases(K), reference, ref_phases), dist.means, dist.log_stds
 
@@ -103,6 +105,71 @@ def test_concurrent_reports_never_lose_or_reuse_episodes(store):
 
 def test_unknown_job_is_none(store):
     assert store.get_spec("nope") is None and store.get_params("nope") is None
+
+
+def fall_flags(batch: EpisodeBatch) -> np.ndarray:
+    """Component 2 always falls, the others never."""
+    return batch.components == 2
+
+
+def test_fall_flags_feed_the_rates_and_a_report_without_them_leaves_them(store):
+    spec, means, log_stds = make_spec(fall_weighting=0.5)
+    store.create_job(spec, means, log_stds)
+    store.report(spec, make_batch(12, 0), None)  # an old client: no flags
+    assert store.get_params(spec.job_id).fall_stats is None
+    np.testing.assert_array_equal(store.get_params(spec.job_id).fall_rates(), np.zeros(K))
+    flagged = [make_batch(n, seed) for seed, n in ((1, 7), (2, 9))]
+    expected = FallStats.empty(K)
+    for batch in flagged:
+        store.report(spec, batch, None, fall_flags(batch))
+        expected = expected.updated(batch.components, fall_flags(batch))
+        store.report(spec, make_batch(3, 9), None)  # unflagged reports in between change nothing
+    np.testing.assert_array_equal(store.get_params(spec.job_id).fall_rates(), [0.0, 0.0, 1.0])
+    _, resumed, created = store.create_job(spec, means, log_stds)  # a resumed run re-creates its job
+    assert not created
+    np.testing.assert_array_equal(resumed.fall_stats.falls, expected.falls)
+    np.testing.assert_array_equal(resumed.fall_stats.episodes, expected.episodes)
+
+
+def test_concurrent_flagged_reports_never_lose_a_flag(store):
+    spec, means, log_stds = make_spec(episodes_per_update=25)
+    store.create_job(spec, means, log_stds)
+    batch = EpisodeBatch(np.zeros((3, D), np.float32), np.zeros(3, np.int32), np.zeros(3))
+    fell = np.array([True, False, True])
+    threads = [threading.Thread(target=lambda: [store.report(spec, batch, None, fell) for _ in range(20)]) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    expected = FallStats.empty(K)
+    for _ in range(80):  # identical reports: the result does not depend on their order, only on none being lost
+        expected = expected.updated(batch.components, fell)
+    stats = store.get_params(spec.job_id).fall_stats
+    np.testing.assert_allclose(stats.episodes, expected.episodes, rtol=1e-12)
+    np.testing.assert_allclose(stats.falls, expected.falls, rtol=1e-12)
+
+
+@pytest.mark.integration
+def test_redis_and_memory_stores_agree_on_fall_stats_and_weighted_steps(redis_url):
+    from services.asi.redis_store import RedisStore
+
+    spec, means, log_stds = make_spec(episodes_per_update=10, fall_weighting=0.5)
+    memory, redis_store = InMemoryStore(), RedisStore(redis_url)
+    batches = [make_batch(n, seed) for seed, n in enumerate([4, 8, 13, 2])]
+    for store in (memory, redis_store):
+        store.create_job(spec, means, log_stds)
+        for batch in batches:
+            store.report(spec, batch, None, fall_flags(batch))
+    again = RedisStore(redis_url)  # a restarted server's store object
+    assert again.get_spec(spec.job_id).config == spec.config  # fall_weighting kept with the job
+    a, b = memory.get_params(spec.job_id), again.get_params(spec.job_id)
+    assert a.version == b.version == 2
+    np.testing.assert_array_equal(a.fall_stats.falls, b.fall_stats.falls)
+    np.testing.assert_array_equal(a.fall_stats.episodes, b.fall_stats.episodes)
+    np.testing.assert_array_equal(a.means, b.means)
+    np.testing.assert_array_equal(a.log_stds, b.log_stds)
+    redis_store.close()
+    again.close()
 
 
 @pytest.mark.integration

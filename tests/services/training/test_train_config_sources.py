@@ -118,6 +118,19 @@ def test_resume_keeps_the_saved_config_and_lets_safe_settings_change(tmp_path):
     assert changed.ppo.policy_hidden == (64, 64)  # an unsafe setting given with its saved value is fine
 
 
+def test_asi_fall_weighting_is_a_flag_validated_and_safe_on_resume(tmp_path):
+    run = _saved_run(tmp_path)
+    saved = json.loads((run / "config.json").read_text())
+    assert saved.pop("asi_fall_weighting") == 0.0  # off by default
+    (run / "config.json").write_text(json.dumps(saved))  # a run from before the option
+    assert TrainConfig.from_dict(saved).asi_fall_weighting == 0.0
+    resumed = train.build_config(parse("--out", str(run), "--resume", "--asi-fall-weighting", "0.5"))
+    assert resumed.asi_fall_weighting == 0.5
+    bad = train.build_config(parse("--out", str(tmp_path / "bad"), "--asi-fall-weighting", "1.5"))
+    with pytest.raises(SfvError, match=r"--asi-fall-weighting must lie in \[0, 1\], got 1.5"):
+        bad.validate()
+
+
 @pytest.mark.parametrize("flags, named", [
     (["--hidden", "128,128"], "--hidden"),
     (["--physics-hz", "1200"], "--physics-hz"),
