@@ -8,10 +8,15 @@ settings that differ from the first run's (dotted config paths), the training cu
 the iterations in the 50 k samples before the mark), every periodic strict evaluation
 (`eval/...` rows) and what ended the episodes (`falls/...`, mean over the last ten iterations).
 The PNG draws training episode length and evaluated normalised return against samples.
+
+Run directories do not outlive a session here, their summaries do: `--earlier FILE.json[:NAME]`
+adds the runs of an earlier comparison's JSON (those whose run directory ends in NAME, or all)
+as they were recorded, so a new run is drawn and listed beside the baseline it is measured against.
 """
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -71,6 +76,20 @@ def summarise(run_dir: Path, marks: list[int]) -> dict:
             "curve": {"samples": [r["samples"] for r in train], "episode_length": [r["episode_length"] for r in train]}}
 
 
+def earlier_runs(spec: str) -> list[dict]:
+    """The runs of an earlier comparison JSON (`FILE.json` or `FILE.json:NAME`), marked as such."""
+    path, _, name = spec.partition(".json:")
+    path = path if spec.endswith(".json") and not name else path + ".json"
+    try:
+        runs = json.loads(Path(path).read_text())["runs"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise SfvError(f"--earlier {spec}: not a comparison JSON with runs ({type(exc).__name__})") from None
+    chosen = [dict(r, earlier=path) for r in runs if not name or Path(r.get("run", "")).name == name]
+    if not chosen:
+        raise SfvError(f"--earlier {spec}: no run named {name!r} in {path}")
+    return chosen
+
+
 def plot(summaries: list[dict], out: Path) -> None:
     import matplotlib
 
@@ -81,8 +100,12 @@ def plot(summaries: list[dict], out: Path) -> None:
 
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
     for s in summaries:
-        name = Path(s["run"]).name
-        top.plot(s["curve"]["samples"], smooth(s["curve"]["episode_length"], 0.8), label=name)
+        name = Path(s["run"]).name + (" (earlier)" if "earlier" in s else "")
+        if "curve" in s:
+            top.plot(s["curve"]["samples"], smooth(s["curve"]["episode_length"], 0.8), label=name)
+        else:  # an earlier run's curve survives only at its marks
+            marks = sorted(s["at"], key=int)
+            top.plot([int(m) for m in marks], [s["at"][m]["episode_length"] for m in marks], marker=".", label=name)
         if s["eval"]:
             bottom.plot([e["samples"] for e in s["eval"]], [e["eval/normalized_return"] for e in s["eval"]], marker="o", label=name)
     top.set_ylabel("training episode length (steps)")
@@ -103,6 +126,8 @@ def main(argv=None) -> int:
     parser.add_argument("--out", required=True, help="JSON file to write")
     parser.add_argument("--png", help="also draw the curves here")
     parser.add_argument("--note", default="", help="a line saying what the comparison is")
+    parser.add_argument("--earlier", action="append", default=[], metavar="FILE.json[:NAME]",
+                        help="add the runs recorded in an earlier comparison JSON (only the one whose run directory is NAME)")
     args = parser.parse_args(argv)
     try:
         marks = [parse_samples(m) for m in args.marks.split(",") if m.strip()]
@@ -112,6 +137,7 @@ def main(argv=None) -> int:
             if not (path / CONFIG_FILE).is_file() or not (path / METRICS_FILE).is_file():
                 raise SfvError(f"{run}: not a run directory with metrics (needs {CONFIG_FILE} and {METRICS_FILE})")
             configs.append(read_run_config(path).to_dict())  # older configs upgraded: new fields at the values they ran with
+        earlier = [run for spec in args.earlier for run in earlier_runs(spec)]
     except SfvError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -119,14 +145,14 @@ def main(argv=None) -> int:
     for summary, diff in zip(summaries, config_differences(configs)):
         summary["differs"] = diff
     if args.png:
-        plot(summaries, Path(args.png))
+        plot(earlier + summaries, Path(args.png))
     for s in summaries:
         s.pop("curve")
         line = " ".join(f"{int(m) // 1000}k: {v['episode_length']:.0f} steps" for m, v in s["at"].items())
         last_eval = s["eval"][-1] if s["eval"] else {}
         print(f"{Path(s['run']).name}: {line}; last eval {last_eval.get('eval/normalized_return', '-')} "
               f"at {last_eval.get('samples', '-')}; differs: {s['differs'] or 'baseline'}")
-    write_json_atomic(Path(args.out), {"note": args.note, "marks": marks, "runs": summaries})
+    write_json_atomic(Path(args.out), {"note": args.note, "marks": marks, "runs": earlier + summaries})
     return 0
 
 

@@ -50,3 +50,17 @@ def test_bad_input_is_one_line(tmp_path, compare, capsys):
     assert compare.parse_samples("1.5M") == 1_500_000 and compare.parse_samples("250k") == 250_000
     assert compare.main([str(tmp_path), "--out", str(tmp_path / "x.json")]) == 2
     assert "not a run directory" in capsys.readouterr().err and not (tmp_path / "x.json").exists()
+
+
+def test_an_earlier_comparisons_run_is_listed_and_drawn_beside_the_new_one(tmp_path, compare, capsys):
+    write_run(tmp_path / "old", [10, 20], evals=[(50_000, 0.2)])
+    first = tmp_path / "first.json"
+    assert compare.main([str(tmp_path / "old"), "--marks", "50k", "--out", str(first)]) == 0
+    write_run(tmp_path / "new", [10, 40], evals=[(50_000, 0.5)])
+    out, png = tmp_path / "cmp.json", tmp_path / "cmp.png"
+    assert compare.main([str(tmp_path / "new"), "--marks", "50k", "--earlier", f"{first}:old", "--out", str(out), "--png", str(png)]) == 0
+    old, new = json.loads(out.read_text())["runs"]
+    assert old["earlier"] == str(first) and old["eval"][0]["eval/normalized_return"] == 0.2 and "earlier" not in new
+    assert new["eval"][0]["eval/normalized_return"] == 0.5 and png.read_bytes()[:4] == b"\x89PNG"
+    assert compare.main([str(tmp_path / "new"), "--earlier", f"{first}:nobody", "--out", str(tmp_path / "x.json")]) == 2
+    assert "no run named 'nobody'" in capsys.readouterr().err and not (tmp_path / "x.json").exists()
