@@ -115,6 +115,10 @@ def run_check(args: argparse.Namespace) -> int:
     report["physics_hz"] = config.physics.physics_hz
     report["control_hz"] = config.control_hz
     report["playback_reward"] = round(playback_reward(env), 6)
+    if motion.loop:  # a loop whose last pose is not its first jumps at every wrap (actors/motion/loop_closure.py)
+        from actors.motion.loop_closure import wrap_mismatch
+
+        report["loop_wrap_mismatch_rad"] = round(float(wrap_mismatch(motion).max()), 4)
     print(json.dumps(report))
     return 0
 

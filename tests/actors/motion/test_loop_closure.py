@@ -1,6 +1,8 @@
 """Closing a looped clip's wrap (actors/motion/loop_closure.py)."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -63,3 +65,12 @@ def test_the_blend_is_capped_at_half_the_clip():
     assert wrap_mismatch(closed).max() < 1e-6
     change = _angles(_swing().joint_rot, closed.joint_rot).max(axis=1)
     assert change[30] < 1e-9  # the middle frame (1.0 s) still untouched
+
+
+def test_motion_check_reports_an_open_loop(tmp_path, capsys):
+    from actors.motion.formats.io import save_motion
+    from services.cli import main
+
+    path = save_motion(_swing(mismatch=0.4), tmp_path / "swing.npz")
+    assert main(["motion", "check", str(path)]) == 0
+    assert json.loads(capsys.readouterr().out)["loop_wrap_mismatch_rad"] == pytest.approx(0.4, abs=1e-3)

@@ -356,6 +356,9 @@ def test_cli_motion_check_and_convert(tmp_path, capsys):
     assert report["frames"] == 10 and report["loop"] is True and report["joints"] == NUM_JOINTS
     assert report["duration"] == pytest.approx(original.duration, abs=1e-6)
     assert report["playback_reward"] >= 0.99
+    # The largest joint angle between the last and the first frame (this writer closes its loops).
+    dots = np.abs(np.sum(original.joint_rot[-1] * original.joint_rot[0], axis=-1))
+    assert report["loop_wrap_mismatch_rad"] == pytest.approx(2 * np.arccos(np.clip(dots, 0, 1)).max(), abs=1e-3)
 
 
 def test_cli_convert_of_bad_input_writes_nothing(tmp_path, capsys):
