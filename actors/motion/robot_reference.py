@@ -29,3 +29,18 @@ def robot_reference(motion: RobotMotion, character) -> ReferenceMotion:
     times = np.arange(motion.num_frames) / motion.fps
     return ReferenceMotion(motion.name, times, np.asarray(motion.root_pos, np.float64), qn.quat_normalize(motion.root_quat),
                            joint_rot, loop=motion.loop, source=motion.source, character=character.name)
+
+
+def robot_motion_of(reference: ReferenceMotion, character, source: str = "") -> RobotMotion:
+    """The inverse: a reference in `character`'s pose space (a recorded rollout) as a robot motion
+    file's contents. Frames must be evenly spaced (the file has one fps)."""
+    if reference.character != character.name:
+        raise MotionFormatError(f"{reference.name}: a {reference.character} motion, not the {character.name}'s")
+    steps = np.diff(reference.frame_times)
+    if not np.allclose(steps, steps[0], rtol=1e-6):
+        raise MotionFormatError(f"{reference.name}: a robot motion file needs evenly spaced frames")
+    axes = np.asarray(character.hinge_axes, np.float64)
+    # The signed angle about each hinge's axis (as StateLayout reads a hinge's quaternion).
+    angles = 2.0 * np.arctan2(np.einsum("tjk,jk->tj", reference.joint_rot[..., 1:], axes), reference.joint_rot[..., 0])
+    return RobotMotion(character.name, reference.name, source or reference.source or reference.name, float(1.0 / steps[0]),
+                       reference.loop, tuple(character.joint_names), reference.root_pos.copy(), reference.root_rot.copy(), angles)

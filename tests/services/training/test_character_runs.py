@@ -63,6 +63,27 @@ def test_a_robot_motion_for_the_humanoid_is_refused_in_one_line(tmp_path):
     assert reference.character == "g1" and reference.joint_rot.shape == (frames, 29, 4)
 
 
+def test_robot_motion_and_reference_convert_both_ways():
+    import numpy as np
+
+    from actors.character import g1_spec
+    from actors.character.characters import character_named
+    from actors.motion.robot_motion import RobotMotion
+    from actors.motion.robot_reference import robot_motion_of, robot_reference
+
+    rng = np.random.default_rng(0)
+    lo, hi = g1_spec.JOINT_LIMITS.T
+    angles = rng.uniform(lo, hi, (5, g1_spec.NUM_JOINTS))
+    quat = rng.normal(size=(5, 4))
+    robot = RobotMotion("g1", "random_g1", "test", 25.0, True, g1_spec.JOINT_NAMES, rng.normal(size=(5, 3)),
+                        quat / np.linalg.norm(quat, axis=1, keepdims=True), angles)
+    g1 = character_named("g1")
+    back = robot_motion_of(robot_reference(robot, g1), g1)
+    np.testing.assert_allclose(back.joint_pos, angles, atol=1e-12)
+    np.testing.assert_allclose(back.qpos(), robot.qpos(), atol=1e-12)
+    assert (back.fps, back.loop, back.joint_names) == (25.0, True, g1_spec.JOINT_NAMES)
+
+
 @pytest.fixture(scope="module")
 def g1_run(tmp_path_factory):
     if not g1_model.model_available():
@@ -89,6 +110,15 @@ def test_export_onnx_and_render_of_a_g1_run(g1_run, tmp_path, capsys):
     assert main(["export", str(g1_run), "--onnx", str(onnx)]) == 0
     exported = json.loads(capsys.readouterr().out)
     assert (exported["obs_dim"], exported["act_dim"]) == (406, 29)
+    from actors.motion.robot_motion import load_robot_motion
+
+    rollout = tmp_path / "rollout_g1.npz"
+    assert main(["export", str(g1_run), "--motion", str(rollout), "--seconds", "0.2"]) == 0
+    written = json.loads(capsys.readouterr().out)["rollouts"][0]
+    recorded = load_robot_motion(rollout, "g1")  # the robot's own file, checked against its joints and limits
+    assert recorded.num_frames == written["frames"] and recorded.fps == 30.0
+    assert main(["export", str(g1_run), "--bvh", str(tmp_path / "g1.bvh")]) != 0
+    assert "BVH export writes the humanoid3d's skeleton; a g1 rollout goes to --motion" in capsys.readouterr().err
     from services.render.gl import select_backend
 
     try:
