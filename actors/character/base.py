@@ -32,6 +32,7 @@ class Character(Protocol):
     nu: int  # its actuators: the PD targets an action sets
     hinge_axes: np.ndarray  # (hinge joints, 3) the axis each 1-DoF joint turns about, in its parent's frame
     actuator_limits: np.ndarray  # (nu, 2) target limits: ball joints' 3 axes first, then the hinges
+    default_joint_pos: np.ndarray  # (nu,) the PD targets of a standing pose (what a robot runtime holds before a policy acts)
     kp: np.ndarray  # (joints,) PD gains
     kd: np.ndarray
     torque_limits: np.ndarray  # (joints,) N m

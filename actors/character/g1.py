@@ -26,6 +26,7 @@ class G1:
     joint_links = np.arange(1, spec.NUM_JOINTS + 1)  # link i + 1 is the child of joint i (g1.xml's chain order)
     hinge_axes = spec.HINGE_AXES
     actuator_limits = spec.JOINT_LIMITS  # the PD targets stay within the joints' range
+    default_joint_pos = spec.standing_joint_angles()  # mjlab's knees-bent keyframe
     nq = spec.NQ  # 36
     nv = spec.NV  # 35
     nu = spec.NUM_JOINTS  # 29

@@ -26,6 +26,7 @@ class Humanoid3D:
     nv = 6 + nu  # 34
     hinge_axes = np.tile(skeleton.HINGE_AXIS, (int((~skeleton.JOINT_IS_SPHERICAL).sum()), 1))  # every hinge turns about one axis
     actuator_limits = skeleton.actuator_limits()
+    default_joint_pos = np.zeros(skeleton.NUM_ACTUATED_DOF)  # its zero pose stands straight
     kp = np.array([skeleton.LINKS[i].kp for i in skeleton.JOINT_LINKS])
     kd = np.array([skeleton.LINKS[i].kd for i in skeleton.JOINT_LINKS])
     torque_limits = np.array([skeleton.LINKS[i].torque_limit for i in skeleton.JOINT_LINKS])

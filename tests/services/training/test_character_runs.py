@@ -130,3 +130,47 @@ def test_export_onnx_and_render_of_a_g1_run(g1_run, tmp_path, capsys):
     summary = json.loads(capsys.readouterr().out)
     assert summary["motion"] == "deepmimic:walk_g1" and summary["frames"] >= 2 and video.stat().st_size > 0
     assert json.loads((g1_run / CONFIG_FILE).read_text())["env"]["character"] == "g1"
+
+
+@needs_g1
+def test_the_onnx_export_carries_a_robot_runtimes_metadata(g1_run, tmp_path):
+    import numpy as np
+
+    from actors.character import g1_spec
+    from learner.onnx_export import OnnxPolicy
+    from services.export.onnx_run import export_run_onnx
+    from services.training.policy_source import load_policy_source
+
+    out = tmp_path / "g1_runtime.onnx"
+    export_run_onnx(g1_run, out)
+    meta = {key: json.loads(value) for key, value in OnnxPolicy(out).metadata.items()}
+    assert meta["sfv_runtime"] == "sfv-runtime-1" and meta["character"] == "g1"
+    assert meta["joint_order"] == list(g1_spec.JOINT_NAMES)  # the actions' order
+    np.testing.assert_allclose(meta["kp"], g1_spec.KP, rtol=1e-5)
+    np.testing.assert_allclose(meta["kd"], g1_spec.KD, rtol=1e-5)
+    np.testing.assert_allclose(meta["effort_limit"], g1_spec.EFFORT_LIMITS, rtol=1e-6)
+    np.testing.assert_allclose(meta["armature"], g1_spec.ARMATURE, rtol=1e-5)
+    np.testing.assert_allclose(meta["default_joint_pos"], g1_spec.standing_joint_angles())
+    np.testing.assert_allclose(meta["target_limits"], g1_spec.JOINT_LIMITS.T, atol=1e-6)
+    assert meta["action"] == {"parameterisation": "exp_map", "dim": 29, "clip": [-1.0, 1.0], "scale": [0.5] * 29,
+                              "offset": "reference_targets", "lead_steps": 2, "elementwise": True}
+    assert (meta["control_hz"], meta["physics_hz"], meta["reference_loop"]) == (30.0, 300.0, True)
+    env = load_policy_source(g1_run).make_env()
+    assert np.shape(meta["reference_targets"]) == (env.track.start_steps, 29)
+    np.testing.assert_allclose(meta["reference_targets"], env.track.ctrl[:env.track.start_steps], atol=1e-6)
+    # The layout names the numbers the env writes.
+    layout = {block["name"]: block for block in meta["observation_layout"]}
+    assert sum(block["size"] for block in layout.values()) == 406 and meta["observation_links"][0] == "pelvis"
+    obs, _ = env.reset(seed=1)
+    at = lambda name: obs[layout[name]["start"]:layout[name]["start"] + layout[name]["size"]]
+    assert at("root_height")[0] == pytest.approx(env.data.qpos[2], abs=1e-6)
+    assert at("phase")[0] == pytest.approx(env.phase, abs=1e-6)
+    np.testing.assert_allclose(at("link_positions")[:3], 0.0, atol=1e-6)  # the root, relative to itself
+    # The runtime's action map reproduces the env's PD targets.
+    action = np.random.default_rng(0).uniform(-1.5, 1.5, 29)
+    row = min(env.row + 1 + meta["action"]["lead_steps"], env.track.rows - 1)
+    offset = np.asarray(meta["reference_targets"])[row % env.track.start_steps]
+    lower, upper = np.asarray(meta["target_limits"])
+    expected = np.clip(offset + np.asarray(meta["action"]["scale"]) * np.clip(action, -1, 1), lower, upper)
+    targets = env.actions.targets_batch(action[None], np.zeros((1, 29)), env.track.ctrl[row:row + 1])
+    np.testing.assert_allclose(targets[0], expected, atol=1e-5)
