@@ -9,22 +9,18 @@ from __future__ import annotations
 
 from actors.character.g1 import G1_ROBOT
 from actors.character.humanoid3d import HUMANOID3D
+from learner.registry import Registry
 
-CHARACTERS: dict[str, object] = {}
+CHARACTERS = Registry("character")
 
 
 def register_character(character) -> None:
-    if character.name in CHARACTERS:
-        raise ValueError(f"character {character.name!r} is already registered")
-    CHARACTERS[character.name] = character
+    CHARACTERS.register(character.name, character)
 
 
 def character_named(name: str):
     """The registered character called `name` (ValueError naming the registered ones)."""
-    try:
-        return CHARACTERS[name]
-    except KeyError:
-        raise ValueError(f"character must be one of {', '.join(CHARACTERS)}, got {name!r}") from None
+    return CHARACTERS.named(name)
 
 
 register_character(HUMANOID3D)

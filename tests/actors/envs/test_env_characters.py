@@ -16,15 +16,7 @@ G1 = EnvConfig(character="g1", horizon_s=1.0)
 
 
 @pytest.fixture(scope="module")
-def walk():
-    pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")
-    from actors.motion.formats.io import load_motion
-
-    return load_motion("deepmimic:walk")
-
-
-@pytest.fixture(scope="module")
-def g1_walk(walk, tmp_path_factory):
+def g1_walk(walk_clip, tmp_path_factory):
     """The walk retargeted onto the G1 and saved as a robot motion file at exactly 30 fps, so
     that the control grid's rows are the file's frames."""
     if not g1_model.model_available():
@@ -34,7 +26,7 @@ def g1_walk(walk, tmp_path_factory):
     from actors.motion.robot_motion import save_robot_motion
     from actors.motion.robot_retarget import retarget_to_g1
 
-    robot, _ = retarget_to_g1(walk)
+    robot, _ = retarget_to_g1(walk_clip)
     robot = dataclasses.replace(robot, fps=30.0)
     return robot, save_robot_motion(robot, tmp_path_factory.mktemp("g1") / "walk_g1.npz")
 
@@ -53,9 +45,9 @@ def test_both_bodies_are_registered_and_humanoid3d_is_the_default():
         EnvConfig(character="atlas")
 
 
-def test_the_humanoid_env_is_the_humanoid3d(walk):
-    env = ImitationEnv(walk, EnvConfig(horizon_s=0.5))
-    assert env.humanoid.character.name == "humanoid3d" and env.model.nu == 28 and env.motion is walk
+def test_the_humanoid_env_is_the_humanoid3d(walk_clip):
+    env = ImitationEnv(walk_clip, EnvConfig(horizon_s=0.5))
+    assert env.humanoid.character.name == "humanoid3d" and env.model.nu == 28 and env.motion is walk_clip
 
 
 def test_modes_and_links_of_another_body_are_refused_in_one_line():
@@ -134,10 +126,10 @@ def test_g1_falls_are_its_own_links_on_the_ground(g1_env):
 
 
 @needs_g1
-def test_vector_env_retargets_a_humanoid_clip_once_and_steps_the_g1(walk, caplog):
+def test_vector_env_retargets_a_humanoid_clip_once_and_steps_the_g1(walk_clip, caplog):
     starts = BufferedStarts(ReferenceStarts("rsi", np.random.default_rng(0)))
     with caplog.at_level("WARNING", logger="sfv.motion"):
-        venv = VectorImitationEnv(walk, G1, 3, starts, seed=1)
+        venv = VectorImitationEnv(walk_clip, G1, 3, starts, seed=1)
     assert sum("retargeted onto the g1" in r.getMessage() for r in caplog.records) == 1
     assert all(env.humanoid is venv.envs[0].humanoid and env.model.nu == 29 for env in venv.envs)
     venv.reset()
