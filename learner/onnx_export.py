@@ -5,7 +5,8 @@ The graph is built straight from `PPOLearner.policy_weights()` (no torch tracing
     obs [batch, obs_dim] -> clip((obs - mean) / std) -> (MatMul, Add, Relu)* -> MatMul, Add -> action_mean [batch, act_dim]
 
 The fixed action std travels in the model's metadata (``action_std``, a JSON list), so
-`OnnxPolicy` can also sample, with the same `act()` contract as `learner.policy.NumpyPolicy`.
+`OnnxPolicy` can also sample, with the same `act()` contract as `learner.policy.NumpyPolicy`;
+a caller may add its own string properties (`sfv export --onnx`: what a robot runtime needs).
 """
 
 from __future__ import annotations
@@ -58,8 +59,9 @@ def normalised_mlp(input_name: str, mean, std, clip: float, layers, output: str,
     return initializers, nodes
 
 
-def build_policy_onnx(policy_weights: Mapping[str, np.ndarray]) -> onnx.ModelProto:
-    """An ONNX model of the policy mean with the observation normalisation baked in."""
+def build_policy_onnx(policy_weights: Mapping[str, np.ndarray], metadata: Mapping[str, str] | None = None) -> onnx.ModelProto:
+    """An ONNX model of the policy mean with the observation normalisation baked in; `metadata`:
+    more string properties for the file (a robot runtime's, `services/export/runtime_metadata.py`)."""
     layers = policy_layers(policy_weights)
     obs_dim = int(np.shape(policy_weights["obs_mean"])[0])
     act_dim = layers[-1][0].shape[1]
@@ -79,14 +81,18 @@ def build_policy_onnx(policy_weights: Mapping[str, np.ndarray]) -> onnx.ModelPro
         graph, opset_imports=[helper.make_opsetid("", OPSET)], producer_name="sfv", ir_version=IR_VERSION
     )
     action_std = [float(value) for value in np.asarray(policy_weights["action_std"], dtype=np.float32)]
-    helper.set_model_props(model, {"action_std": json.dumps(action_std)})
+    extra = dict(metadata or {})
+    if "action_std" in extra:
+        raise ValueError("internal: action_std is the policy's own metadata")
+    helper.set_model_props(model, {"action_std": json.dumps(action_std), **extra})
     onnx.checker.check_model(model)
     return model
 
 
-def export_policy_onnx(policy_weights: Mapping[str, np.ndarray], path: str | os.PathLike) -> Path:
-    """Write the policy-mean ONNX model atomically to `path`."""
-    return atomic_write_bytes(path, build_policy_onnx(policy_weights).SerializeToString())
+def export_policy_onnx(policy_weights: Mapping[str, np.ndarray], path: str | os.PathLike,
+                       metadata: Mapping[str, str] | None = None) -> Path:
+    """Write the policy-mean ONNX model atomically to `path` (with `metadata` properties)."""
+    return atomic_write_bytes(path, build_policy_onnx(policy_weights, metadata).SerializeToString())
 
 
 class OnnxPolicy:
@@ -105,6 +111,7 @@ class OnnxPolicy:
                 str(self.path), sess_options=options, providers=["CPUExecutionProvider"]
             )
             metadata = self._session.get_modelmeta().custom_metadata_map
+            self.metadata = dict(metadata)  # the file's string properties (a robot runtime's among them)
             self._action_std = np.asarray(json.loads(metadata["action_std"]), dtype=np.float32)
         except Exception as exc:  # onnxruntime raises its own exception types
             reason = " ".join(str(exc).split())[:200]

@@ -8,8 +8,10 @@ ids and each joint's qpos / DoF addresses, `joint_qpos_adr`, `joint_dof_adr`). A
 props come after the character's own coordinates, so `qpos[:nq]`, `qvel[:nv]` and `ctrl[:nu]`
 are the character's whatever the arena holds. The modules that turn a body into numbers
 (features, actions, mirror maps, state layout, the reward's weights, the fall rule) read it
-from the character they are given (the built model's `character`), never from a skeleton. `humanoid3d` (DeepMimic's humanoid,
-`actors/character/humanoid3d.py`) is the first; a robot is another `Character`.
+from the character they are given (the built model's `character`, a `CompiledCharacter`:
+`compiled.py`), never from a skeleton. `humanoid3d` (DeepMimic's humanoid,
+`actors/character/humanoid3d.py`) is the first, the Unitree G1 (`g1.py`) the second; the
+registry of characters by name is `characters.py`.
 """
 from __future__ import annotations
 
@@ -24,17 +26,20 @@ class Character(Protocol):
     num_links: int  # MuJoCo bodies 1..num_links are the links (an arena's bodies come after them)
     joint_names: tuple[str, ...]  # the actuated joints, in motion-file order
     joint_is_spherical: np.ndarray  # (joints,) bool: 3-DoF ball or 1-DoF hinge
+    joint_links: np.ndarray  # (joints,) the link each joint moves (the reward's weights are by link)
     nq: int  # the character's own qpos size (a free root first)
     nv: int  # its qvel size
     nu: int  # its actuators: the PD targets an action sets
     hinge_axes: np.ndarray  # (hinge joints, 3) the axis each 1-DoF joint turns about, in its parent's frame
     actuator_limits: np.ndarray  # (nu, 2) target limits: ball joints' 3 axes first, then the hinges
+    default_joint_pos: np.ndarray  # (nu,) the PD targets of a standing pose (what a robot runtime holds before a policy acts)
     kp: np.ndarray  # (joints,) PD gains
     kd: np.ndarray
     torque_limits: np.ndarray  # (joints,) N m
     end_effector_links: np.ndarray  # link indices (the reward's end effectors)
     feet: tuple[str, ...]  # links always allowed on the ground (every clip's fall rule allows them)
     torso_links: np.ndarray  # link indices of the torso and head (a task's fall rule)
+    fall_contact_geoms: tuple[str, ...]  # the torso's and head's geoms (the compiled model's `fall_geom_ids`)
     link_mirror: np.ndarray  # link -> its left/right partner
     joint_mirror: np.ndarray  # joint -> its partner
     reward_joint_weights: dict[str, float]  # the imitation reward's per-joint weights, by link name

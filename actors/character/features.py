@@ -34,6 +34,29 @@ def observation_dim(reference_steps: int = 0, character=HUMANOID3D) -> int:
     return obs_dim(character) + REFERENCE_OBS_WIDTH * reference_steps
 
 
+def observation_layout(character=HUMANOID3D, reference_steps: int = 0, pose_steps: int = 0, scene_dim: int = 0) -> list[dict]:
+    """The observation's blocks in order, each {name, start, size, what}: what `observations`
+    writes (links in `character.link_names` order, everything in the root's heading frame), then
+    the reference's poses ahead (`actors/envs/reference_obs.py`) and a scene's vector."""
+    n = character.num_links
+    blocks = [("root_height", 1, "root height above the ground (m)"),
+              ("link_positions", 3 * n, "each link's position relative to the root (m), x y z per link"),
+              ("link_rotations", 4 * n, "each link's world rotation turned into the heading frame, w x y z per link, w >= 0"),
+              ("link_linear_velocities", 3 * n, "each link's linear velocity (m/s)"),
+              ("link_angular_velocities", 3 * n, "each link's angular velocity (rad/s)"),
+              ("reference_root_positions", 3 * reference_steps, "the reference root K steps ahead relative to the root (m)"),
+              ("reference_root_rotations", 4 * reference_steps, "the reference root's rotation K steps ahead, w x y z"),
+              ("phase", 1, "the clip's phase in [0, 1]"),
+              ("reference_poses", pose_steps * pose_obs_width(character), "per step ahead: the reference's root height and link positions"),
+              ("scene", scene_dim, "the scene vector over its domain")]
+    layout, start = [], 0
+    for name, size, what in blocks:
+        if size:
+            layout.append({"name": name, "start": start, "size": size, "what": what})
+        start += size
+    return layout
+
+
 @dataclass(frozen=True)
 class RewardShape:
     """How many of each compared thing a character's `RewardFeatures` row holds: quaternions

@@ -220,29 +220,3 @@ def _kinematic_xml(folder: str) -> str:
 def kinematic_model(directory: str | Path | None = None) -> mujoco.MjModel:
     """The robot alone (no floor, no actuators, no visual meshes): for kinematics and IK."""
     return mujoco.MjModel.from_xml_string(_kinematic_xml(str(model_dir(directory))))
-
-
-class G1Model:
-    """The compiled G1 in an arena and its index maps (the shape of `humanoid.Humanoid`)."""
-
-    def __init__(self, physics=None, arena=None, directory: str | Path | None = None):
-        self.config = PhysicsConfig() if physics is None else physics
-        self.arena = FlatFloor() if arena is None else arena
-        self.model = mujoco.MjModel.from_xml_string(build_g1_mjcf(self.config, self.arena, directory))
-        m = self.model
-        self.body_ids = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, n) for n in spec.LINK_NAMES])
-        joint_ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in spec.JOINT_NAMES]
-        self.joint_qpos_adr = m.jnt_qposadr[joint_ids].copy()
-        self.joint_dof_adr = m.jnt_dofadr[joint_ids].copy()
-        # Torso and head (the humanoid's root, chest and neck); episodes use the per-clip rule of actors/envs/falls.py.
-        self.fall_geom_ids = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n) for n in spec.FALL_CONTACT_GEOMS])
-        self.floor_geom_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, self.arena.geom_name)
-        self.num_actuators = m.nu
-
-    @property
-    def nq(self) -> int:
-        return self.model.nq
-
-    @property
-    def nv(self) -> int:
-        return self.model.nv

@@ -17,11 +17,14 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from actors.character.characters import CHARACTER_NAMES
 from actors.character.humanoid3d import HUMANOID3D
 
 # Links that may touch the ground beyond the character's feet (every clip allows those), per
-# DeepMimic clip (from its train args); the crawl's are every link but the torso and head.
-_EXTRA_ALLOWED: dict[str, tuple[str, ...]] = {"cartwheel": ("right_wrist", "left_wrist")}
+# DeepMimic clip (from its train args), by role so that every body reads them: "hands" are the
+# end effectors that are not feet (humanoid3d's wrists, the G1's wrist-yaw links); the crawl's
+# are every link but the torso and head.
+_EXTRA_ALLOWED: dict[str, str] = {"cartwheel": "hands"}
 _ALL_BUT_TORSO_CLIPS = ("crawl",)
 # Clips DeepMimic trains with no fall rule (the skill is on the ground).
 NO_FALL_CLIPS = ("roll", "getup_facedown", "getup_faceup")
@@ -40,10 +43,20 @@ LOW_CLIPS = ("crawl",)
 def clip_key(motion_name: str) -> str:
     """'deepmimic:cartwheel', 'humanoid3d_cartwheel' or a path's stem -> 'cartwheel'; a
     mirrored clip ('cartwheel_mirror') has its original's rule (the allowed links come in
-    left/right pairs, so the rule is its own mirror image)."""
+    left/right pairs, so the rule is its own mirror image), and so has a clip retargeted onto
+    a robot ('deepmimic:cartwheel_g1', `actors/motion/robot_retarget.py` names it so)."""
     name = motion_name.rsplit("/", 1)[-1].split(":", 1)[-1]
     name = name.rsplit(".", 1)[0] if name.endswith((".txt", ".json", ".npz")) else name
+    for character in CHARACTER_NAMES:
+        name = name.removesuffix("_" + character)
     return name.removeprefix("humanoid3d_").removesuffix("_mirror")
+
+
+def _role_links(role: str, character) -> tuple[str, ...]:
+    """The character's links of a role of `_EXTRA_ALLOWED`."""
+    if role == "hands":
+        return tuple(character.link_names[i] for i in character.end_effector_links if character.link_names[i] not in character.feet)
+    raise ValueError(f"internal: no link role {role!r}")
 
 
 def allowed_contact_links(motion_name: str, override: tuple[str, ...] | None = None, character=HUMANOID3D) -> tuple[str, ...]:
@@ -62,7 +75,7 @@ def allowed_contact_links(motion_name: str, override: tuple[str, ...] | None = N
     elif key in _ALL_BUT_TORSO_CLIPS:
         extra = tuple(n for i, n in enumerate(names) if i not in character.torso_links)
     else:
-        extra = _EXTRA_ALLOWED.get(key, ())
+        extra = _role_links(_EXTRA_ALLOWED[key], character) if key in _EXTRA_ALLOWED else ()
     return tuple(n for n in names if n in character.feet or n in extra)
 
 

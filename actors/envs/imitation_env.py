@@ -35,13 +35,15 @@ from actors.envs.core import CoreParts, ImitationCore
 from actors.envs.falls import FallDetector
 from actors.character.features import observation_dim, pose_obs_width, update_kinematics
 from actors.character.humanoid import PhysicsConfig, control_substeps
-from actors.character.humanoid3d import HUMANOID3D, Humanoid
+from actors.character.characters import CHARACTER_NAMES, character_named
+from actors.character.compiled import CompiledCharacter
+from actors.motion.character_reference import reference_for
 from actors.motion.reference_motion import ReferenceMotion
 from actors.envs.modes import MODE_NAMES, mode_class
 from actors.envs.modes.movingcam.tracking import MovingcamConfig
 from actors.motion.reference_track import ReferenceTrack
 from actors.envs.modes.sfv.config import SfvConfig
-from actors.envs.scene_reward import SCENE_LIMB_LINKS, SceneReward, SceneRewardConfig
+from actors.envs.scene_reward import SCENE_CHARACTERS, SCENE_LIMB_LINKS, SceneReward, SceneRewardConfig
 from actors.character.state import StateLayout
 
 INIT_STRATEGIES = ("fsi", "rsi", "state")
@@ -49,6 +51,7 @@ INIT_STRATEGIES = ("fsi", "rsi", "state")
 
 @dataclass(frozen=True)
 class EnvConfig:
+    character: str = field(default="humanoid3d", metadata={"choices": CHARACTER_NAMES, "help": "the body: humanoid3d (DeepMimic's humanoid, SFV's character) or g1 (the Unitree G1, 29 DoF: `sfv models fetch --robot g1`; its motion is a robot motion file, or a humanoid clip retargeted onto it at load)"})
     control_hz: float = field(default=30.0, metadata={"help": "policy queries per second (the paper's 30 Hz)"})
     physics: PhysicsConfig = field(default_factory=PhysicsConfig, metadata={"help": "MuJoCo model settings (physics rate, friction)"})
     horizon_s: float = field(default=20.0, metadata={"help": "episode horizon for looped clips (seconds)"})
@@ -80,7 +83,15 @@ class EnvConfig:
         for name, kind in (("sfv", SfvConfig), ("movingcam", MovingcamConfig)):
             if isinstance(getattr(self, name), dict):  # from a saved run config
                 object.__setattr__(self, name, kind(**getattr(self, name)))
-        mode_class(self.mode)  # ValueError naming the registered modes
+        character = character_named(self.character)  # ValueError naming the registered characters
+        followed = mode_class(self.mode).characters  # ValueError naming the registered modes
+        if followed is not None and self.character not in followed:
+            raise ValueError(f"env mode {self.mode} follows the {', '.join(followed)} only, not the {self.character}")
+        if self.scene is not None and self.character not in SCENE_CHARACTERS:
+            raise ValueError(f"scene files and their reward name the {', '.join(SCENE_CHARACTERS)}'s links, not the {self.character}'s")
+        unknown = [n for n in self.ground_contact_links or () if n not in character.link_names]
+        if unknown:
+            raise ValueError(f"ground contact links {unknown} are not links of the {self.character} ({', '.join(character.link_names)})")
         if not self.target_lead_s >= 0:
             raise ValueError(f"target_lead_s must be >= 0, got {self.target_lead_s}")
         if any(k < 0 for k in self.reference_obs_steps + self.reference_pose_obs_steps):
@@ -103,13 +114,23 @@ class EnvConfig:
         return control_substeps(self.physics, self.control_hz)
 
 
+def build_body(config: EnvConfig, motion: ReferenceMotion) -> CompiledCharacter:
+    """The config's character compiled in the config's arena (a scene's boxes placed along `motion`)."""
+    return character_named(config.character).build(config.physics, arena_for(config.scene, motion, config.scene_check_start_pose))
+
+
 class ImitationEnv(CoreParts, gym.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
 
-    def __init__(self, motion: ReferenceMotion, config: EnvConfig = EnvConfig(), humanoid: Humanoid | None = None, track: ReferenceTrack | None = None):
+    def __init__(self, motion, config: EnvConfig = EnvConfig(), humanoid: CompiledCharacter | None = None,
+                 track: ReferenceTrack | None = None):
+        """`motion`: a reference in any body's pose space (`reference_for` brings it to
+        `config.character`'s); `humanoid`, `track`: the built body and its track, when shared."""
         self._config = config
-        self.motion = motion
-        self.humanoid = humanoid or HUMANOID3D.build(config.physics, arena_for(config.scene, motion, config.scene_check_start_pose))
+        self.motion = motion = reference_for(motion, character_named(config.character))
+        self.humanoid = humanoid or build_body(config, motion)  # the body, whichever character (the name is older than the G1)
+        if self.humanoid.character.name != config.character:
+            raise ValueError(f"internal: a built {self.humanoid.character.name} for an env of the {config.character}")
         self.arena = self.humanoid.arena
         self.scene = self.arena.scene  # boxes that move per episode (None: nothing moves)
         # With boxes each env moves its own (the model is what set_scene edits).
@@ -130,7 +151,7 @@ class ImitationEnv(CoreParts, gym.Env):
         self.scene_obs = np.zeros(scene_dim)
         self._fixed_scene: np.ndarray | None = None
         self.scene_reward = None if self.scene is None else SceneReward.for_track(self.track, self.scene, self.arena.frame)
-        self.scene_limbs = self.humanoid.body_ids[SCENE_LIMB_LINKS] - 1  # rows of FeatureExtractor.pos
+        self.scene_limbs = self.humanoid.body_ids[SCENE_LIMB_LINKS] - 1 if self.scene is not None else None  # rows of FeatureExtractor.pos
         self.fall_detector = FallDetector.for_clip(self.humanoid, motion.name, config.ground_contact_links)
         self._start = 0
         self._step = 0

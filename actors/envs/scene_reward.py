@@ -53,6 +53,7 @@ from actors.arenas.scene import Scene, SceneError, SceneFrame
 from actors.character.skeleton import LINK_NAMES, LINKS
 
 SCENE_LIMBS = ("right_ankle", "left_ankle", "right_wrist", "left_wrist")  # 002's rf, lf, rh, lh
+SCENE_CHARACTERS = ("humanoid3d",)  # the bodies whose links SCENE_LIMBS names
 SCENE_LIMB_LINKS = np.array([LINK_NAMES.index(n) for n in SCENE_LIMBS])
 NUM_TERMS = 4  # dist, align, com, height
 TOP_BAND = 0.04  # m: a reference sole this close to a top face rests on it

@@ -11,10 +11,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from actors.arenas import arena_for
+from actors.character.characters import character_named
 from actors.character.humanoid3d import HUMANOID3D
 from actors.envs.core import CoreParts, ImitationCore
-from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.envs.imitation_env import EnvConfig, ImitationEnv, build_body
+from actors.motion.character_reference import reference_for
 from actors.envs.initial_states import BufferedStarts
 from actors.motion.reference_motion import ReferenceMotion
 from actors.motion.reference_track import ReferenceTrack
@@ -26,7 +27,7 @@ def other_end(character) -> int:
     return 1 << character.num_links
 
 
-OTHER_END = other_end(HUMANOID3D)
+OTHER_END = other_end(HUMANOID3D)  # humanoid3d's; an env's is other_end(env.humanoid.character)
 
 
 @dataclass
@@ -56,7 +57,8 @@ class EpisodeLog:
 
 class VectorImitationEnv(CoreParts):
     def __init__(self, motion: ReferenceMotion, config: EnvConfig, num_envs: int, starts: BufferedStarts, seed: int = 0, gamma: float = 0.95):
-        humanoid = HUMANOID3D.build(config.physics, arena_for(config.scene, motion, config.scene_check_start_pose))
+        motion = reference_for(motion, character_named(config.character))  # once for the M envs (a clip retargeted here)
+        humanoid = build_body(config, motion)  # one compiled model for the M envs (a scene's env copies its own)
         track = ReferenceTrack(motion, humanoid, 1.0 / config.control_hz, config.horizon_s)
         self.envs = [ImitationEnv(motion, config, humanoid, track) for _ in range(num_envs)]
         self.num_envs = num_envs

@@ -1,7 +1,10 @@
 """`ReferenceMotion`: a clip the character imitates, sampled at any time.
 
 A clip is a root trajectory plus the local rotation of each of the 12 joints (quaternions,
-revolute joints as rotations about the hinge axis), in the Z-up frame of `skeleton.py`.
+revolute joints as rotations about the hinge axis), in the Z-up frame of `skeleton.py`; or,
+with `character` a robot's name, of each of the robot's hinges (a robot motion file read by
+`actors/motion/robot_reference.py`), so the track, the state layout and the reward sample
+either body's reference the same way.
 Frames may be unevenly spaced (`frame_times`). Poses between frames are slerped; velocities
 are central differences at the frames, linearly interpolated. A looped clip repeats with its
 horizontal root displacement accumulated per cycle (the "cyclic root offset"), so a walk
@@ -15,7 +18,6 @@ import numpy as np
 
 from actors.character import quaternion as qn
 from actors.character.kinematics import forward_kinematics
-from actors.character.skeleton import NUM_JOINTS
 from learner.errors import SfvError
 
 
@@ -46,6 +48,9 @@ class ReferenceMotion:
     loop: bool = False
     extras: dict = field(default_factory=dict)  # arrays carried along in the file (keypoints, ...)
     source: str | None = field(default=None, compare=False)  # the file it was loaded from (for error messages)
+    # The body whose pose space the joints are in: humanoid3d's 12 joints, or a robot's hinges
+    # as rotations about their axes (`actors/motion/robot_reference.py`).
+    character: str = "humanoid3d"
 
     def __post_init__(self):
         self.frame_times = np.asarray(self.frame_times, dtype=np.float64)
@@ -76,7 +81,9 @@ class ReferenceMotion:
         return qn.quat_rotate(self.root_rot[frame], np.array([1.0, 0.0, 0.0]))
 
     def link_positions(self, frame: int = 0) -> np.ndarray:
-        """(links, 3) world positions of the character's links at a frame (forward kinematics)."""
+        """(links, 3) world positions of the humanoid's links at a frame (forward kinematics)."""
+        if self.character != "humanoid3d":
+            raise MotionFormatError(f"{self.source or self.name}: link positions are the humanoid3d's; this is a {self.character} motion")
         links, _ = forward_kinematics(self.root_pos[frame], self.root_rot[frame], self.joint_rot[frame])
         return links
 
@@ -154,5 +161,5 @@ class ReferenceMotion:
             "duration": round(self.duration, 6),
             "fps": round(self.fps, 6),
             "loop": self.loop,
-            "joints": NUM_JOINTS,
+            "joints": int(self.joint_rot.shape[1]),
         }

@@ -1,7 +1,7 @@
 """The three things the env suite times, each stepping at the configured physics and
 control rates in this process:
 
-* `RawPhysics`: MuJoCo alone, the humanoid open-loop (fixed PD targets), `substeps` physics
+* `RawPhysics`: MuJoCo alone, the config's character open-loop (fixed PD targets), `substeps` physics
   steps per control step, reset when the root drops or at the horizon. No observation,
   no reward, no policy: the upper bound on control steps/s for this model on one core.
 * `EnvStepper`: `ImitationEnv.step` with random actions (observation + reward + fall
@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 
 from actors.character.features import OBS_DIM
-from actors.character.humanoid3d import Humanoid
+from actors.character.characters import character_named
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.motion.reference_motion import ReferenceMotion
 from actors.rollout.worker import RolloutWorker, WorkerSpec
@@ -28,7 +28,7 @@ FALLEN_ROOT_HEIGHT = 0.5  # m; the standing root is at 0.88
 
 class RawPhysics:
     def __init__(self, env_config: EnvConfig, steps_per_chunk: int = 30):
-        self.model = Humanoid(env_config.physics).model
+        self.model = character_named(env_config.character).build(env_config.physics).model
         self.data = mujoco.MjData(self.model)
         self.substeps = env_config.substeps
         self.horizon = max(1, round(env_config.horizon_s * env_config.control_hz))

@@ -5,7 +5,7 @@
         onnxruntime alone: `sfv eval --onnx`, `sfv render --onnx`)
     sfv export RUN --motion rollout.npz --bvh rollout.bvh [--episodes 1] [--seconds T]
         roll the policy out and record the simulated character's root and joint rotations at
-        every control step, as an sfv motion (.npz) and/or BVH (Y up, centimetres by default,
+        every control step, as an sfv motion (.npz; a robot's: a robot motion file) and/or BVH (humanoid3d) (Y up, centimetres by default,
         ZXY Euler channels; see actors/motion/formats/bvh.py). With --episodes E > 1 each episode
         goes to its own file: NAME_ep01.npz, NAME_ep02.npz, ...
 
@@ -64,13 +64,16 @@ def _check_args(args) -> None:
 def export_rollouts(args) -> list[dict]:
     from threadpoolctl import threadpool_limits
 
+    from actors.motion.character_reference import HUMANOID
     from actors.motion.formats.bvh import write_bvh
-    from actors.motion.formats.io import save_motion
+    from learner.errors import SfvError
     from services.export.rollout import record_episode
     from services.training.policy_source import load_policy_source
 
     source = load_policy_source(args.run, args.policy_onnx, checkpoint=args.checkpoint)
     env = source.make_env()
+    if args.bvh and env.motion.character != HUMANOID:
+        raise SfvError(f"{args.bvh}: BVH export writes the humanoid3d's skeleton; a {env.motion.character} rollout goes to --motion FILE.npz")
     written = []
     for episode in range(args.episodes):
         name = f"{env.motion.name} rollout of {source.description} (seed {args.seed + episode})"
@@ -79,11 +82,25 @@ def export_rollouts(args) -> list[dict]:
         entry = {"episode": episode + 1, "frames": motion.num_frames, "seconds": motion.duration, "fell": progress.terminated,
                  "normalized_return": progress.normalized_return}
         if args.motion:
-            entry["motion"] = str(save_motion(motion, _episode_path(args.motion, episode, args.episodes)))
+            entry["motion"] = str(_save_rollout(motion, env, _episode_path(args.motion, episode, args.episodes)))
         if args.bvh:
             entry["bvh"] = str(write_bvh(motion, _episode_path(args.bvh, episode, args.episodes), args.units))
         written.append(entry)
     return written
+
+
+def _save_rollout(motion, env, path: Path) -> Path:
+    """A humanoid rollout as an sfv motion, a robot's as a robot motion file (`sfv motion convert`'s format)."""
+    from actors.motion.character_reference import HUMANOID
+
+    if motion.character == HUMANOID:
+        from actors.motion.formats.io import save_motion
+
+        return save_motion(motion, path)
+    from actors.motion.robot_motion import save_robot_motion
+    from actors.motion.robot_reference import robot_motion_of
+
+    return save_robot_motion(robot_motion_of(motion, env.humanoid.character, source=env.motion.name), path)
 
 
 def run(args) -> int:

@@ -12,7 +12,9 @@ CHECK_TOLERANCE = 1e-4  # float32 MLP: ONNX and numpy differ by rounding only (~
 
 
 def export_run_onnx(run_dir: str | Path, out: str | Path, seed: int = 0, checkpoint: str = "best") -> dict:
-    """Write the deterministic policy (observation normalisation baked in) to `out`.
+    """Write the deterministic policy (observation normalisation baked in) to `out`, with what a
+    robot runtime needs as its metadata (`runtime_metadata.py`: joints, gains, actions, rates,
+    observation layout).
 
     The written file is reloaded with onnxruntime and compared with `NumpyPolicy` on random
     observations spread like the training data (the run's own normaliser statistics, some
@@ -25,8 +27,12 @@ def export_run_onnx(run_dir: str | Path, out: str | Path, seed: int = 0, checkpo
     out = Path(out)
     if out.suffix.lower() != ".onnx":
         raise SfvError(f"{out}: the policy file must end in .onnx")
-    _, weights = load_run(run_dir, checkpoint)
-    export_policy_onnx(weights, out)
+    from services.export.runtime_metadata import runtime_metadata
+    from services.training.policy_source import PolicySource
+
+    config, weights = load_run(run_dir, checkpoint)
+    env = PolicySource(None, config.env, config.motion, "").make_env()  # the run's body and reference, as trained
+    export_policy_onnx(weights, out, runtime_metadata(env))
     rng = np.random.default_rng(seed)
     mean, std = np.asarray(weights["obs_mean"]), np.asarray(weights["obs_std"])
     obs = (mean + 3.0 * std * rng.standard_normal((CHECK_ROWS, mean.shape[0]))).astype(np.float32)

@@ -1,4 +1,5 @@
-"""Deterministic policy rollouts, step by step, and their recording as a ReferenceMotion.
+"""Deterministic policy rollouts, step by step, and their recording as a ReferenceMotion (in the
+pose space of the env's character: a robot's is written as a robot motion file, `sfv export`).
 
 `episode_steps` is a generator: it yields once after reset and once after every control
 step, so a caller can look at (render, record) or act on (push) `env.data` in between.
@@ -73,5 +74,6 @@ def record_episode(policy, env: ImitationEnv, seed: int, init: str, seconds: flo
         env.layout.joint_quats_from_qpos(qpos, joint_rot[count])
         count += 1
     frame_times = np.arange(count) / env.config.control_hz
-    motion = ReferenceMotion(name, frame_times, root_pos[:count], root_rot[:count], joint_rot[:count], loop=False)
+    motion = ReferenceMotion(name, frame_times, root_pos[:count], root_rot[:count], joint_rot[:count], loop=False,
+                             character=env.humanoid.character.name)
     return motion, progress

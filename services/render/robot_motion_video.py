@@ -9,7 +9,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from actors.character.g1_model import G1Model
+from actors.character.g1 import G1Model
 from actors.character.humanoid3d import Humanoid
 from actors.character.state import StateLayout
 from actors.motion.reference_motion import ReferenceMotion

@@ -15,7 +15,7 @@ RUNNER_NAMES = ("ray", "in_process", "processes")
 
 @dataclass
 class TrainConfig:
-    motion: str = field(default="deepmimic:walk", metadata={"help": "motion to imitate: a name (deepmimic:walk) or a .npz / DeepMimic / BVH file (any rig, retargeted)"})
+    motion: str = field(default="deepmimic:walk", metadata={"help": "motion to imitate: a name (deepmimic:walk) or a .npz / DeepMimic / BVH file (any rig, retargeted); with --character g1 also a robot motion file (sfv motion convert CLIP --character g1), a humanoid clip being retargeted onto the G1 at load"})
     out: str = field(default="runs/walk", metadata={"help": "run directory: config, metrics.jsonl, TensorBoard events, checkpoints"})
     workers: int = field(default=2, metadata={"help": "rollout workers (Ray actors, one process each)"})
     envs_per_worker: int = field(default=32, metadata={"help": "envs per worker, stepped together with one batched policy forward (32 amortises the 1024-512 policy: worker at ~0.9 of raw physics vs ~0.8 at 16)"})

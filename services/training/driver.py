@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from actors.envs.imitation_env import ImitationEnv
-from actors.motion.formats.io import load_motion
+from actors.character.characters import character_named
+from actors.motion.character_reference import load_reference
 from actors.rollout.worker import RolloutWorker, WorkerSpec
 from actors.character.humanoid3d import HUMANOID3D
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
@@ -143,7 +144,7 @@ class Trainer:
     def run(self) -> dict:
         config = self.config
         # The motion and the env (its scene file) first: a bad file is one line with nothing written.
-        motion = load_motion(config.motion)
+        motion = load_reference(config.motion, character_named(config.env.character))  # a clip for a robot: retargeted once, here
         env, ref_states, ref_phases = self._reference_table(motion)
         checkpoint = self._prepare_run_dir()
         self.track_rows = env.track.rows  # the frame range of adaptive tuple sampling's coverage
@@ -282,7 +283,7 @@ class Trainer:
             "time": time.time(),
         }
         record.update({k if "/" in k else f"losses/{k}": float(v) for k, v in losses.items()})
-        record.update(fall_cause_shares(batch.get("episode_fall_causes")))
+        record.update(fall_cause_shares(batch.get("episode_fall_causes"), character_named(self.config.env.character)))
         return record
 
     def _keep_best(self, learner: PPOLearner, record: dict, asi_version: int) -> None:

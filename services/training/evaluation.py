@@ -193,7 +193,7 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
             falls[k] = fell or diverged
             divergences += diverged
             if recorded:
-                sim = RewardFeatures(sim_rows[:recorded])
+                sim = RewardFeatures(sim_rows[:recorded], env.features.reward_shape)
                 ref = track.features.take(ref_rows[:recorded])
                 rotation, end_effector = tracking_errors(sim, ref)
                 rotation_sum += float(rotation.sum())
@@ -259,14 +259,13 @@ def evaluate_run(run_dir: str | Path | None, episodes: int = DEFAULT_EPISODES, s
     policy) on its motion (or `motion`), at the run's physics rate or at `physics_hz`."""
     from threadpoolctl import threadpool_limits
 
-    from actors.motion.formats.io import load_motion
     from services.training.policy_source import load_policy_source
 
     source = load_policy_source(run_dir, onnx, motion, checkpoint)
     env_config = source.env_config
     if physics_hz is not None:
         env_config = with_physics_rate(env_config, physics_hz)
-    env = make_eval_env(load_motion(source.motion), env_config)
+    env = make_eval_env(source.reference(), env_config)
     with threadpool_limits(1, user_api="blas"):  # batch-1 inference: BLAS threads only spin
         result = evaluate_policy(source.policy, env, episodes, seed, pushes, push_impulse, push_duration_s)
         if not env.motion.loop:
@@ -302,11 +301,13 @@ class TrainingEvaluator:
 
         from threadpoolctl import threadpool_limits
 
-        from actors.motion.formats.io import load_motion
+        from actors.character.characters import character_named
+        from actors.motion.character_reference import load_reference
         from learner.policy import NumpyPolicy
 
         if self._env is None:
-            self._env = make_eval_env(load_motion(self.config.motion), self.config.env)
+            reference = load_reference(self.config.motion, character_named(self.config.env.character))
+            self._env = make_eval_env(reference, self.config.env)
         if self._policy is None:
             self._policy = NumpyPolicy(weights, max_batch=1)
         else:

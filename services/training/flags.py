@@ -81,9 +81,10 @@ def _int_list(positive_only: bool, allow_none: bool):
 
 
 def _link_names(text: str) -> tuple[str, ...]:
-    from actors.character.humanoid3d import HUMANOID3D
+    from actors.character.characters import CHARACTERS
 
-    links = HUMANOID3D.link_names  # the character sfv trains
+    # Any body's links: the env config checks them against its own character's.
+    links = tuple(dict.fromkeys(name for character in CHARACTERS.values() for name in character.link_names))
     if text.strip().lower() == "none":
         return ()
     names = tuple(part.strip() for part in text.split(",") if part.strip())
@@ -104,6 +105,7 @@ def _residual_scale(text: str) -> float | None:
 
 
 ALIASES = (
+    Alias("--character", ("env.character",)),
     Alias("--epochs", ("ppo.update_epochs",), _positive(int)),
     Alias("--policy-lr", ("ppo.policy_lr",), _positive(float)),
     Alias("--batch-size", ("ppo.batch_size",), _positive(int)),

@@ -2,15 +2,18 @@
 
 Either a run directory's newest checkpoint (needs torch to read it), or an exported ONNX
 file (onnxruntime only: torch is never imported on that path). The environment settings
-come from the run's config.json when a run is given, else the defaults with `--motion`.
+come from the run's config.json when a run is given (its character among them), else the
+defaults with `--motion`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
 
+from actors.character.characters import character_named
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
-from actors.motion.formats.io import load_motion
+from actors.motion.character_reference import load_reference
+from actors.motion.reference_motion import ReferenceMotion
 from learner.errors import SfvError
 from services.training.run_dir import load_run, read_run_config
 
@@ -23,8 +26,12 @@ class PolicySource:
     description: str  # what the policy was loaded from, for captions and reports
     checkpoint: str | None = None  # the run's checkpoint file it was read from (best.pt, checkpoint_N.pt); None for ONNX
 
+    def reference(self) -> ReferenceMotion:
+        """The motion in the pose space of the run's character (a humanoid clip retargeted for a robot)."""
+        return load_reference(self.motion, character_named(self.env_config.character))
+
     def make_env(self) -> ImitationEnv:
-        return ImitationEnv(load_motion(self.motion), self.env_config)
+        return ImitationEnv(self.reference(), self.env_config)
 
 
 def load_policy_source(run_dir: str | Path | None, onnx: str | Path | None = None, motion: str | None = None,

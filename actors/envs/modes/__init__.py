@@ -5,21 +5,17 @@ from __future__ import annotations
 
 from actors.envs.modes.movingcam.mode import MovingcamMode
 from actors.envs.modes.sfv.mode import SfvMode
+from learner.registry import Registry
 
-MODES: dict[str, type] = {}
+MODES = Registry("env mode")
 
 
 def register_mode(mode: type) -> None:
-    if mode.name in MODES:
-        raise ValueError(f"env mode {mode.name!r} is already registered")
-    MODES[mode.name] = mode
+    MODES.register(mode.name, mode)
 
 
 def mode_class(name: str) -> type:
-    try:
-        return MODES[name]
-    except KeyError:
-        raise ValueError(f"env mode must be one of {tuple(MODES)}, got {name!r}") from None
+    return MODES.named(name)
 
 
 register_mode(SfvMode)

@@ -19,6 +19,7 @@ class Mode(Protocol):
     name: str
     term_names: tuple[str, ...]  # the reward terms' names, as many as the core's term columns
     tracks_root: bool  # the reference's root path is followed: root sync and reference-root observations
+    characters: tuple[str, ...] | None  # the bodies the mode can follow (None: any `Character`)
     max_reward: float  # the most one control step earns from the mode's reward
     terminated: np.ndarray  # (B,) bool: the mode's own termination of the last `rewards`
     captures: tuple  # per-env callables (i, data) run right after each env's physics step

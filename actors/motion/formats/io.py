@@ -255,6 +255,8 @@ def _check_derived(path, motion: ReferenceMotion) -> None:
 
 def save_motion(motion: ReferenceMotion, path: str | os.PathLike) -> Path:
     """Write the .npz atomically (temp file in the same folder, then rename)."""
+    if motion.character != "humanoid3d":  # the format holds the humanoid's 12 joints
+        raise MotionFormatError(f"{path}: a {motion.character} motion is a robot motion file (actors/motion/robot_motion.py)")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     arrays = dict(motion.extras)

@@ -31,16 +31,22 @@ REPO = Path(__file__).resolve().parents[3]
 ACT_DIM = 28  # the default exp-map (residual) actions: 8 ball joints x 3 + 4 hinges
 
 
-def make_tiny_run(run_dir: Path, init: str = "rsi", seed: int = 0, hidden=(64,), returns=(0.05, 0.1, 0.2)) -> PPOLearner:
+def make_tiny_run(run_dir: Path, init: str = "rsi", seed: int = 0, hidden=(64,), returns=(0.05, 0.1, 0.2),
+                  env: EnvConfig = EnvConfig()) -> PPOLearner:
+    """`env`: the run's env settings (its character sizes the observation and the actions)."""
+    from actors.character.characters import character_named
+
     run_dir.mkdir(parents=True, exist_ok=True)
-    config = TrainConfig(motion="deepmimic:walk", out=str(run_dir), init=init, seed=seed, runner="in_process")
+    config = TrainConfig(motion="deepmimic:walk", out=str(run_dir), init=init, seed=seed, runner="in_process", env=env)
     config.ppo.policy_hidden = tuple(hidden)
     config.ppo.value_hidden = (16,)
     config.ppo.seed = seed
     (run_dir / CONFIG_FILE).write_text(json.dumps(config.to_dict()))
-    learner = PPOLearner(OBS_DIM, ACT_DIM, config.ppo)
+    character = character_named(env.character)
+    obs_dim = observation_dim(len(env.reference_obs_steps), character)
+    learner = PPOLearner(obs_dim, character.nu, config.ppo)  # exp-map actions: one per actuator
     rng = np.random.default_rng(seed)
-    learner.normalizer.update(torch.as_tensor(rng.normal(0.5, 3.0, size=(256, OBS_DIM)), dtype=torch.float32))
+    learner.normalizer.update(torch.as_tensor(rng.normal(0.5, 3.0, size=(256, obs_dim)), dtype=torch.float32))
     with torch.no_grad():  # a visibly non-zero policy, so that exports and rollouts are not trivial
         learner.policy.mean_net[-1].weight.mul_(30.0)
     payload = {"learner": learner.state_dict(), "policy_weights": learner.policy_weights(), "samples": 4096,

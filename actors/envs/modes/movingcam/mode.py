@@ -13,6 +13,7 @@ class MovingcamMode:
     name = "movingcam"
     term_names = TERM_NAMES
     tracks_root = False
+    characters = ("humanoid3d",)  # its cues name the humanoid's feet, hands and neck (clip_cues.py)
 
     def __init__(self, config, track, humanoid, batch: int):
         self.tracking = MovingcamTracking(track, humanoid, config.movingcam, batch, config.reference_obs_steps)

@@ -17,6 +17,7 @@ class SfvMode:
     name = "sfv"
     term_names = TERM_NAMES
     tracks_root = True
+    characters = None  # any body: the reward reads the character's joints and weights
     captures = ()
 
     def __init__(self, config, track, humanoid, batch: int):

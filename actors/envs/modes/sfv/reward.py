@@ -85,7 +85,9 @@ def error_matrices(form: str, layout: RewardFeatures, body) -> tuple[np.ndarray,
     each joint's first qvel index `joint_dof_adr` (MuJoCo orders qvel by the body tree,
     hinges between ball joints, not by skeleton order)."""
     character = body.character
-    names, spherical = character.joint_names, character.joint_is_spherical
+    # The weights are by link: the root's, and each joint's by the link it moves.
+    root, spherical = character.link_names[0], character.joint_is_spherical
+    names = [character.link_names[i] for i in character.joint_links]
     cols = layout.tail_columns
     tail = np.zeros((layout.tail.shape[1], NUM_TERMS))
     quat = np.zeros((layout.shape.quats, NUM_TERMS))
@@ -98,12 +100,12 @@ def error_matrices(form: str, layout: RewardFeatures, body) -> tuple[np.ndarray,
     ball = [n for n, s in zip(names, spherical) if s]
     hinge = [n for n, s in zip(names, spherical) if not s]
     # Pose: root (world) and ball joints by their quaternion angle, hinges by angle gap.
-    quat[:, 0] = [w["root"]] + [w[n] for n in ball]
+    quat[:, 0] = [w[root]] + [w[n] for n in ball]
     h0 = cols["hinges"][0]
     tail[h0:h0 + len(hinge), 0] = [w[n] for n in hinge]
     # Velocity: qvel[3:] = root angular velocity (3), then each joint's dofs at its address.
     a0 = cols["ang_vel"][0]
-    tail[a0:a0 + 3, 1] = w["root"]
+    tail[a0:a0 + 3, 1] = w[root]
     for name, ball_joint, adr in zip(names, spherical, np.asarray(body.joint_dof_adr)):
         first = a0 + int(adr) - 3
         tail[first:first + (3 if ball_joint else 1), 1] = w[name]
