@@ -38,6 +38,7 @@ from actors.character.humanoid import PhysicsConfig, control_substeps
 from actors.character.characters import CHARACTER_NAMES, character_named
 from actors.character.compiled import CompiledCharacter
 from actors.motion.character_reference import reference_for
+from actors.motion.loop_closure import close_loop
 from actors.motion.reference_motion import ReferenceMotion
 from actors.envs.modes import MODE_NAMES, mode_class
 from actors.envs.modes.movingcam.tracking import MovingcamConfig
@@ -58,6 +59,7 @@ class EnvConfig:
     early_termination: bool = field(default=True, metadata={"help": "end the episode when a link the clip does not allow on the ground touches it (DeepMimic: every link but the feet); off for rolls"})
     ground_contact_links: tuple[str, ...] | None = field(default=None, metadata={"help": "links besides the feet that may touch the ground without a fall; None: the clip's DeepMimic setting (cartwheel: hands; crawl: limbs; roll, getups: all)"})
     action_parameterisation: str = field(default="exp_map", metadata={"choices": ("exp_map", "axis_angle"), "help": "exp_map (28-D, DeepMimic's current code and MimicKit) or axis_angle (36-D, SFV's, with a dead point at zero). Walk, ASI, absolute targets, eval NR at 1 M samples: exp_map .23, axis_angle .07 (every episode falls in both)"})
+    loop_closure_s: float = field(default=0.0, metadata={"help": "close a looped clip's wrap (its last pose made its first, the mismatch blended over this many seconds at each end; actors/motion/loop_closure.py); `sfv motion check` reports the mismatch: 1.01 rad on the spinkick, .47 on the cartwheel. Pure PD tracking through the wrap, open / closed at 0.3 s, steps survived: walk 37 / 43, cartwheel 47 / 41, spinkick 35 / 31: off until trainings say; 0: the clip as recorded"})
     target_lead_s: float = field(default=1.0 / 15.0, metadata={"help": "residual actions add to the reference pose this long after the step they act towards (rounded to control steps), not to that step's pose: PD control lags its target by about kd/kp = 0.1 s, so the reference one step ahead leaves fast motions trailing by up to the whole residual range. Zero actions from RSI, mean end-effector reward term over the first 15 steps at a lead of 0 / 1 / 2 / 3 steps: dance_a .26/.38/.43/.30, backflip .28/.38/.43/.37, walk .56/.63/.65/.65. 0: the step's own pose (before this setting)"})
     residual_action_scale: float | None = field(default=0.5, metadata={"help": "PD target = reference target of the step acted towards + this (rad) x action (dynamic-camera paper eq. 1); None: absolute targets. Walk, ASI, exp_map, eval NR at 1 M samples: .91 with no falls residual, .23 (all episodes falling) absolute"})
     sync_root_per_cycle: bool = field(default=True, metadata={"help": "move the reference's horizontal root to the character's at each new cycle of a looped clip (DeepMimic sync_char_root_pos)"})
@@ -92,6 +94,8 @@ class EnvConfig:
         unknown = [n for n in self.ground_contact_links or () if n not in character.link_names]
         if unknown:
             raise ValueError(f"ground contact links {unknown} are not links of the {self.character} ({', '.join(character.link_names)})")
+        if not self.loop_closure_s >= 0:
+            raise ValueError(f"loop_closure_s must be >= 0, got {self.loop_closure_s}")
         if not self.target_lead_s >= 0:
             raise ValueError(f"target_lead_s must be >= 0, got {self.target_lead_s}")
         if any(k < 0 for k in self.reference_obs_steps + self.reference_pose_obs_steps):
@@ -119,6 +123,11 @@ def build_body(config: EnvConfig, motion: ReferenceMotion) -> CompiledCharacter:
     return character_named(config.character).build(config.physics, arena_for(config.scene, motion, config.scene_check_start_pose))
 
 
+def env_reference(motion, config: EnvConfig) -> ReferenceMotion:
+    """The clip an env imitates: in the config's character's pose space, its loop closed as configured."""
+    return close_loop(reference_for(motion, character_named(config.character)), config.loop_closure_s)
+
+
 class ImitationEnv(CoreParts, gym.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
 
@@ -127,7 +136,7 @@ class ImitationEnv(CoreParts, gym.Env):
         """`motion`: a reference in any body's pose space (`reference_for` brings it to
         `config.character`'s); `humanoid`, `track`: the built body and its track, when shared."""
         self._config = config
-        self.motion = motion = reference_for(motion, character_named(config.character))
+        self.motion = motion = env_reference(motion, config)
         self.humanoid = humanoid or build_body(config, motion)  # the body, whichever character (the name is older than the G1)
         if self.humanoid.character.name != config.character:
             raise ValueError(f"internal: a built {self.humanoid.character.name} for an env of the {config.character}")

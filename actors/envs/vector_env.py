@@ -14,8 +14,7 @@ import numpy as np
 from actors.character.characters import character_named
 from actors.character.humanoid3d import HUMANOID3D
 from actors.envs.core import CoreParts, ImitationCore
-from actors.envs.imitation_env import EnvConfig, ImitationEnv, build_body
-from actors.motion.character_reference import reference_for
+from actors.envs.imitation_env import EnvConfig, ImitationEnv, build_body, env_reference
 from actors.envs.initial_states import BufferedStarts
 from actors.motion.reference_motion import ReferenceMotion
 from actors.motion.reference_track import ReferenceTrack
@@ -57,7 +56,7 @@ class EpisodeLog:
 
 class VectorImitationEnv(CoreParts):
     def __init__(self, motion: ReferenceMotion, config: EnvConfig, num_envs: int, starts: BufferedStarts, seed: int = 0, gamma: float = 0.95):
-        motion = reference_for(motion, character_named(config.character))  # once for the M envs (a clip retargeted here)
+        motion = env_reference(motion, config)  # once for the M envs (a clip retargeted or closed here)
         humanoid = build_body(config, motion)  # one compiled model for the M envs (a scene's env copies its own)
         track = ReferenceTrack(motion, humanoid, 1.0 / config.control_hz, config.horizon_s)
         self.envs = [ImitationEnv(motion, config, humanoid, track) for _ in range(num_envs)]

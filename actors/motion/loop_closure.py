@@ -60,11 +60,13 @@ def close_loop(motion: ReferenceMotion, blend_s: float) -> ReferenceMotion:
     not loop or blend_s is 0; blend_s is capped at half the clip)."""
     if not motion.loop or blend_s <= 0.0 or motion.num_frames < 3:
         return motion
-    blend_s = min(float(blend_s), 0.5 * motion.duration)
-    weights = _end_weights(motion.frame_times, motion.duration, blend_s)
-    joint_r = qn.quat_to_axis_angle(qn.quat_mul(qn.quat_conj(motion.joint_rot[-1]), motion.joint_rot[0]))  # (12, 3)
-    joint_rot = qn.quat_mul(motion.joint_rot, qn.quat_from_axis_angle(weights[:, None, None] * joint_r[None]))
+    joint_r = qn.quat_to_axis_angle(qn.quat_mul(qn.quat_conj(motion.joint_rot[-1]), motion.joint_rot[0]))  # (joints, 3)
     tilt = _tilt(motion.root_rot[[0, -1]])
     root_r = qn.quat_to_axis_angle(qn.quat_mul(qn.quat_conj(tilt[1]), tilt[0]))  # (3,)
+    if max(np.abs(joint_r).max(), np.abs(root_r).max()) < 1e-9:  # closed already (e.g. closed once before)
+        return motion
+    blend_s = min(float(blend_s), 0.5 * motion.duration)
+    weights = _end_weights(motion.frame_times, motion.duration, blend_s)
+    joint_rot = qn.quat_mul(motion.joint_rot, qn.quat_from_axis_angle(weights[:, None, None] * joint_r[None]))
     root_rot = qn.quat_mul(motion.root_rot, qn.quat_from_axis_angle(weights[:, None] * root_r[None]))
     return dataclasses.replace(motion, joint_rot=qn.quat_normalize(joint_rot), root_rot=qn.quat_normalize(root_rot))

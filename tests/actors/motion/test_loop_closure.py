@@ -74,3 +74,30 @@ def test_motion_check_reports_an_open_loop(tmp_path, capsys):
     path = save_motion(_swing(mismatch=0.4), tmp_path / "swing.npz")
     assert main(["motion", "check", str(path)]) == 0
     assert json.loads(capsys.readouterr().out)["loop_wrap_mismatch_rad"] == pytest.approx(0.4, abs=1e-3)
+
+
+def test_the_env_imitates_the_closed_clip_when_asked():
+    from actors.envs.imitation_env import EnvConfig, ImitationEnv
+    from actors.envs.initial_states import BufferedStarts, ReferenceStarts
+    from actors.envs.vector_env import VectorImitationEnv
+
+    motion = _swing()
+    open_env, closed_env = ImitationEnv(motion, EnvConfig()), ImitationEnv(motion, EnvConfig(loop_closure_s=0.5))
+    assert wrap_mismatch(open_env.motion).max() == pytest.approx(0.4, abs=1e-6)
+    assert wrap_mismatch(closed_env.motion).max() < 1e-6
+    # The track the env reads is the closed one: the body's pose (links relative to the root,
+    # heading frame) steps across the wrap as far as across any control step, not by the mismatch.
+    wrap = closed_env.track.start_steps  # row t = duration: the next pass's first frame
+
+    def steps(env):
+        pose = env.track.pose_obs
+        return np.abs(pose[wrap] - pose[wrap - 1]).max(), np.abs(pose[wrap - 1] - pose[wrap - 2]).max()
+
+    across, before = steps(closed_env)
+    assert across < 2 * before, (across, before)
+    across, before = steps(open_env)
+    assert across > 4 * before, (across, before)
+    batch = VectorImitationEnv(motion, EnvConfig(loop_closure_s=0.5), 2, BufferedStarts(ReferenceStarts("rsi", np.random.default_rng(0))))
+    assert all(env.motion is batch.envs[0].motion for env in batch.envs) and wrap_mismatch(batch.envs[0].motion).max() < 1e-6
+    with pytest.raises(ValueError, match="loop_closure_s must be >= 0"):
+        EnvConfig(loop_closure_s=-1.0)
