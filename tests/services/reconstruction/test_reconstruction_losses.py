@@ -122,8 +122,9 @@ def test_contact_sliding_counts_steps_of_feet_down_at_both_ends_robustly():
     slide = contact_sliding(corners, contacts, 0.01, smooth=0.1)
     expected = torch.tensor([np.hypot(3.0, 0.1) - 0.1, np.hypot(4.0, 0.1) - 0.1], dtype=torch.float64)
     assert torch.allclose(slide, expected)
-    # linear, not quadratic, for a long step: a foot called down while it swings does not dominate
-    assert float(contact_sliding(corners * 10, contacts, 0.01)[1]) < 10.0 * float(slide[1]) + 1e-6
+    # about linear for a long step (a squared term would grow 100 times): a foot called down while
+    # it swings does not dominate the loss
+    assert float(contact_sliding(corners * 10, contacts, 0.01)[1]) < 11.0 * float(slide[1])
 
 
 def test_joint_clamp_puts_every_parameter_inside_its_limits():
