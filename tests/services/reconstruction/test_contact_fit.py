@@ -5,10 +5,9 @@ import dataclasses
 
 import numpy as np
 import pytest
-import torch
 
 from services.reconstruction import JOINT_KEYPOINTS, ReconstructionConfig, reconstruct_track
-from services.reconstruction.body import body_points
+from services.reconstruction.body import motion_foot_corners
 from services.reconstruction.contact_fit import initial_ground, lift_out_of_ground
 from services.reconstruction.synthetic import make_standing_clip
 
@@ -38,18 +37,13 @@ def fitted(clip):
 
 
 def sole_heights(motion) -> np.ndarray:
-    """(T, 2) lowest point of each foot (right, left) above z = 0, metres; and the feet's centres (T, 2, 3)."""
-    with torch.no_grad():
-        _, corners = body_points(torch.as_tensor(motion.root_pos), torch.as_tensor(motion.root_rot),
-                                 torch.as_tensor(motion.joint_rot))
-    return corners[..., 2].min(dim=-1).values.numpy()
+    """(T, 2) lowest point of each foot (right, left) above z = 0, metres."""
+    return motion_foot_corners(motion.root_pos, motion.root_rot, motion.joint_rot)[..., 2].min(axis=-1)
 
 
 def foot_speed(motion) -> float:
-    with torch.no_grad():
-        _, corners = body_points(torch.as_tensor(motion.root_pos), torch.as_tensor(motion.root_rot),
-                                 torch.as_tensor(motion.joint_rot))
-    centre = corners[..., :2].mean(dim=-2).numpy()
+    """Mean horizontal speed (m/s) of the feet's centres."""
+    centre = motion_foot_corners(motion.root_pos, motion.root_rot, motion.joint_rot)[..., :2].mean(axis=-2)
     return float(np.linalg.norm(np.diff(centre, axis=0), axis=-1).mean() * motion.fps)
 
 
