@@ -33,7 +33,7 @@ def _base_config(args, scene_path):
 
 def _reconstruct(args, out: Path):
     from actors.motion.formats.io import save_motion
-    from services.commands._video_motion import video_motion
+    from services.contacts.video_motion import video_motion
     from services.pose import estimate_video
     from services.reconstruction import ReconstructionConfig
 

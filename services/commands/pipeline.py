@@ -1,7 +1,7 @@
 """`sfv pipeline VIDEO --out DIR`: video -> pose (Ray tasks) -> reconstruction (a Ray task) -> training.
 
 One Ray job graph on one Ray session: the pose tasks' track feeds the reconstruction task,
-whose motion (written to DIR/motion.npz by `sfv reconstruct`'s own path, `_video_motion.py`:
+whose motion (written to DIR/motion.npz by `sfv reconstruct`'s own path, `contacts/video_motion.py`:
 the learned foot contacts it was fitted to, video_start_frame and the video's other extras)
 the training driver imitates with its rollout actors (run directory DIR/train). Then the controller is played against the video
 (`services/pipeline/finish.py`): its best checkpoint from the clip's first frame for the clip's
@@ -119,7 +119,7 @@ def run_static(args) -> int:
     from services.console import attach_log_file
     from services.pose.video import probe_video
     from services.ray_session import connect_ray
-    from services.commands._video_motion import video_motion
+    from services.contacts.video_motion import video_motion
     from services.reconstruction import ReconstructionConfig
     from services.training.driver import Trainer
 

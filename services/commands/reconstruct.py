@@ -54,7 +54,7 @@ def run_reconstruct(args: argparse.Namespace) -> int:
     import dataclasses
 
     from actors.motion.formats.io import save_motion
-    from services.commands._video_motion import video_motion
+    from services.contacts.video_motion import video_motion
     from services.pose import PoseTrack, estimate_video
     from services.pose.video import probe_video
     from services.ray_session import connect_ray

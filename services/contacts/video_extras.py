@@ -10,7 +10,7 @@
   `--camera` decision (a moving camera also makes the motion root-free, `root_free.py`).
 The learned foot-contact estimator's answer (contact_probability (T, 2), contacts (T, 2) bool,
 contact_feet (right, left)) is not made here: the reconstruction takes `estimator.track_contacts`
-as its contact estimate, fits the feet to it and records it (`services/commands/_video_motion.py`).
+as its contact estimate, fits the feet to it and records it (`services/contacts/video_motion.py`).
 Older motion files lack these; readers take 0 for the first two.
 """
 from __future__ import annotations

@@ -6,7 +6,7 @@ reconstruction of each Pose2Sim camera without and with the contact terms.
 
 For each camera of ../shared/data/video/pose2sim_balancing (one person balancing, 100 frames at
 60 fps), BlazePose runs on that camera alone (or its track comes from --track-cache) and the
-motion is made by the path `sfv reconstruct` and `sfv pipeline` take (`_video_motion.py`,
+motion is made by the path `sfv reconstruct` and `sfv pipeline` take (`contacts/video_motion.py`,
 static camera, the learned contacts), once with w_contact = w_slide = 0 ("before": the
 reconstruction as it was) and once with the defaults ("after"). Per motion, on its 60 fps
 frames, with the feet the estimator calls down:
@@ -35,7 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[3]))  # run from a check
 from actors.motion.formats.io import save_motion  # noqa: E402
 from learner.atomic_io import atomic_write_json  # noqa: E402
 from services.bench.scripts.reconstruction_benchmark import CLIP_DIR, HIPS, TRC_FILES, pose_track, read_trc  # noqa: E402
-from services.commands._video_motion import video_motion  # noqa: E402
+from services.contacts.video_motion import video_motion  # noqa: E402
 from services.pipeline import metrics  # noqa: E402
 from services.reconstruction import JOINT_KEYPOINTS, ReconstructionConfig  # noqa: E402
 from services.reconstruction.body import motion_foot_corners  # noqa: E402

@@ -6,7 +6,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from services.commands._video_motion import video_motion
+from services.contacts.video_motion import video_motion
 from services.reconstruction import ReconstructionConfig
 from services.reconstruction.synthetic import make_clip
 
