@@ -31,28 +31,18 @@ def _base_config(args, scene_path):
     return base
 
 
-def moving_camera_motion(track, motion):
-    """The reconstruction with the video's extras, root-free (as `sfv reconstruct --camera moving`)."""
-    from services.pose.camera_path import camera_path
-    from services.reconstruction.root_free import make_root_free
-    from services.contacts.video_extras import video_extras
-
-    path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
-    motion.extras.update(video_extras(track, path, True, motion.extras.get("label_flipped")))
-    return make_root_free(motion)
-
-
 def _reconstruct(args, out: Path):
     from actors.motion.formats.io import save_motion
+    from services.contacts.video_motion import video_motion
     from services.pose import estimate_video
-    from services.reconstruction import ReconstructionConfig, reconstruct_on_ray
+    from services.reconstruction import ReconstructionConfig
 
     config = ReconstructionConfig()
     if args.iterations is not None:
         config = dataclasses.replace(config, iterations=args.iterations)
     track = estimate_video(args.video, models_dir=args.pose_models, use_ray=True)
     track.save(out / "track.npz")
-    motion = moving_camera_motion(track, reconstruct_on_ray(track, config, args.video.stem))
+    motion = video_motion(track, config, args.video.stem, "moving", str(args.video)).motion
     return save_motion(motion, out / "motion.npz")
 
 

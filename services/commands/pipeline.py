@@ -1,8 +1,9 @@
 """`sfv pipeline VIDEO --out DIR`: video -> pose (Ray tasks) -> reconstruction (a Ray task) -> training.
 
 One Ray job graph on one Ray session: the pose tasks' track feeds the reconstruction task,
-whose motion (written to DIR/motion.npz) the training driver imitates with its rollout
-actors (run directory DIR/train). Then the controller is played against the video
+whose motion (written to DIR/motion.npz by `sfv reconstruct`'s own path, `contacts/video_motion.py`:
+the learned foot contacts it was fitted to, video_start_frame and the video's other extras)
+the training driver imitates with its rollout actors (run directory DIR/train). Then the controller is played against the video
 (`services/pipeline/finish.py`): its best checkpoint from the clip's first frame for the clip's
 length, written as DIR/simulated.npz, simulated.bvh, video.mp4 (video | reference | simulation),
 overlay_strip.png (the simulation over the video through the reconstruction's camera) and
@@ -118,7 +119,8 @@ def run_static(args) -> int:
     from services.console import attach_log_file
     from services.pose.video import probe_video
     from services.ray_session import connect_ray
-    from services.reconstruction import ReconstructionConfig, reconstruct_on_ray
+    from services.contacts.video_motion import video_motion
+    from services.reconstruction import ReconstructionConfig
     from services.training.driver import Trainer
 
     out: Path = args.out
@@ -136,7 +138,7 @@ def run_static(args) -> int:
     try:
         track = estimate_video(args.video, models_dir=args.pose_models, use_ray=True)
         track.save(out / "track.npz")
-        motion = reconstruct_on_ray(track, config, args.video.stem)
+        motion = video_motion(track, config, args.video.stem, "static", str(args.video)).motion
         motion_path = save_motion(motion, out / "motion.npz")
         train.motion = str(motion_path)
         record = Trainer(train, progress=not args.quiet).run()

@@ -54,14 +54,11 @@ def run_reconstruct(args: argparse.Namespace) -> int:
     import dataclasses
 
     from actors.motion.formats.io import save_motion
+    from services.contacts.video_motion import video_motion
     from services.pose import PoseTrack, estimate_video
-    from services.pose.camera_path import camera_path, decide_camera
-    from services.pose.subject import crop_to_seen
     from services.pose.video import probe_video
     from services.ray_session import connect_ray
-    from services.reconstruction import ReconstructionConfig, reconstruct_on_ray, reconstruct_track
-    from services.reconstruction.root_free import make_root_free
-    from services.contacts.video_extras import video_extras
+    from services.reconstruction import ReconstructionConfig
 
     _check_args(args)
     choice, frames = person_choice(args), frame_range(args)
@@ -77,26 +74,20 @@ def run_reconstruct(args: argparse.Namespace) -> int:
             track = estimate_video(args.video, models_dir=args.pose_models, use_ray=use_ray, choice=choice, frames=frames)
             if args.save_track is not None:
                 track.save(args.save_track)
-        track = crop_to_seen(track, str(args.track or args.video))
-        path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
-        moving = decide_camera(args.camera, path, track.image_size[0], str(args.track or args.video))
-        name = args.video.stem
-        motion = reconstruct_on_ray(track, config, name) if use_ray else reconstruct_track(track, config, name)
+        made = video_motion(track, config, args.video.stem, args.camera, str(args.track or args.video), use_ray)
     finally:
         if ray_started:
             import ray
 
             ray.shutdown()
-    motion.extras.update(video_extras(track, path, moving, motion.extras.get("label_flipped")))
-    if moving:
-        motion = make_root_free(motion)
+    motion, track = made.motion, made.track
     save_motion(motion, args.out)
     elapsed = time.perf_counter() - started
     flipped = int(motion.extras["label_flipped"].sum())
     print(f"{args.video}: {motion.num_frames} of {info.frame_count} frames (person {track.person_id}, from frame "
           f"{track.start_frame}, {track.filled_frames} not seen and interpolated), {flipped} left/right readings undone, "
           f"mean reprojection error {float(motion.extras['reprojection_error_px'].mean()):.1f} px, "
-          f"{_camera_words(path, moving)}, {elapsed:.1f} s -> {args.out}")
+          f"{_camera_words(made.path, made.moving)}, {elapsed:.1f} s -> {args.out}")
     return 0
 
 

@@ -8,8 +8,9 @@
 - camera_pan_px, camera_tilt_px, camera_zoom, camera_tracked (T,): the camera's motion into
   each frame (`services.pose.camera_path`), where the track measured it; camera_moving: the
   `--camera` decision (a moving camera also makes the motion root-free, `root_free.py`).
-- contact_probability (T, 2) and contacts (T, 2) bool, feet in `contact_feet` order (right,
-  left): the learned foot-contact estimator's answer (`services.contacts`).
+The learned foot-contact estimator's answer (contact_probability (T, 2), contacts (T, 2) bool,
+contact_feet (right, left)) is not made here: the reconstruction takes `estimator.track_contacts`
+as its contact estimate, fits the feet to it and records it (`services/contacts/video_motion.py`).
 Older motion files lack these; readers take 0 for the first two.
 """
 from __future__ import annotations
@@ -19,16 +20,9 @@ import numpy as np
 from services.pose.camera_path import CameraPath
 from services.reconstruction.orientation_hint import orientation_hint
 
-CONTACT_FEET = ("right", "left")
-
-
-def video_extras(track, path: CameraPath | None, camera_moving: bool,
-                 label_flipped: np.ndarray | None = None) -> dict[str, np.ndarray]:
+def video_extras(track, path: CameraPath | None, camera_moving: bool) -> dict[str, np.ndarray]:
     """Extras of a motion reconstructed from `track` (a `services.pose.PoseTrack`) whose camera
-    moved along `path` (None: the track did not measure it); `label_flipped` the frames whose
-    left/right reading the reconstruction undid."""
-    from services.contacts.estimator import track_contacts
-
+    moved along `path` (None: the track did not measure it)."""
     hint, hint_confidence = orientation_hint(track.keypoints2d, track.confidence, tuple(track.keypoint_names),
                                              tuple(track.image_size))
     extras = {
@@ -38,8 +32,6 @@ def video_extras(track, path: CameraPath | None, camera_moving: bool,
         "orientation_hint_confidence": hint_confidence,
         "camera_moving": np.array(bool(camera_moving)),
     }
-    probabilities, flags = track_contacts(track, label_flipped)
-    extras.update(contact_probability=probabilities, contacts=flags, contact_feet=np.array(CONTACT_FEET))
     if path is not None:
         extras.update(camera_pan_px=path.pan_px, camera_tilt_px=path.tilt_px, camera_zoom=path.zoom,
                       camera_tracked=path.tracked)

@@ -98,3 +98,10 @@ def body_points(root_pos, root_quat, joint_quats):
     points = points_on_links(link_pos, link_mats, _POINT_LINKS, _POINT_OFFSETS)
     fit, corners = points[..., :NUM_FIT, :], points[..., NUM_FIT:, :]
     return fit, corners.reshape(corners.shape[:-2] + (len(FOOT_LINKS), len(FOOT_CORNERS), 3))
+
+
+def motion_foot_corners(root_pos: np.ndarray, root_rot: np.ndarray, joint_rot: np.ndarray) -> np.ndarray:
+    """Foot-box corners (T, 2, 8, 3) of a motion's poses (numpy in and out), feet as FOOT_LINKS."""
+    with torch.no_grad():
+        _, corners = body_points(torch.as_tensor(root_pos), torch.as_tensor(root_rot), torch.as_tensor(joint_rot))
+    return corners.double().numpy()

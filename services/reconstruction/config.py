@@ -20,6 +20,13 @@ class ReconstructionConfig:
                 "reprojection error of the 3D prediction (per mille of the image height) is divided by this"})
     w_ground: float = field(default=100.0, metadata={
         "help": "weight of the squared depth (length units) of foot corners below the ground plane"})
+    w_contact: float = field(default=100.0, metadata={
+        "help": "weight of the squared height (length units) of a contact foot's lowest point above or below the "
+                "ground, where the foot-contact estimator says the foot is down (0: no contact terms)"})
+    w_slide: float = field(default=100.0, metadata={
+        "help": "weight of the horizontal step (length units, Charbonnier) of a contact foot between adjacent frames "
+                "in which it is down at both (cam01: 100 halves the robust term's 2D cost of a squared one, 11.3 vs "
+                "12.2 px, at the same skating, 0.49 m/s)"})
     # --- optimiser
     iterations: int = field(default=400, metadata={"help": "Adam steps of the reconstruction"})
     lr_rotation: float = field(default=0.01, metadata={"help": "Adam step size of the rotation parameters (radians)"})

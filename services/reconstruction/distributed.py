@@ -15,8 +15,9 @@ def reconstruct_task():
     return ray.remote(num_cpus=1, max_retries=0)(reconstruct_track)
 
 
-def reconstruct_on_ray(track, config: ReconstructionConfig | None = None, name: str = "reconstruction") -> ReferenceMotion:
+def reconstruct_on_ray(track, config: ReconstructionConfig | None = None, name: str = "reconstruction",
+                       contact_estimate=None) -> ReferenceMotion:
     """Run `reconstruct_track` as a Ray task and wait for it. Uses the running Ray when there
     is one; otherwise starts a local one and shuts it down afterwards."""
     with ray_session():
-        return get_results(reconstruct_task().remote(track, config or ReconstructionConfig(), name))
+        return get_results(reconstruct_task().remote(track, config or ReconstructionConfig(), name, contact_estimate))

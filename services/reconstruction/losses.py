@@ -5,6 +5,14 @@
     l3D = sum_t w_t sum_k dist(q_hat_tk, q_tk),   w_t = exp(-delta_t)
     lsm = sum_t sum_j |F_j(q_t) - F_j(q_t+1)|^2
 
+and, where the foot-contact estimator says a foot is down (SFV section 6 asks the motion to be
+one a physics character can follow; movingcam's contact reward and PhysCap's foot constraints
+are the same idea), two contact terms and the no-penetration term:
+
+    lcontact = sum_t sum_f c_tf (z_tf - g)^2          z_tf the foot's lowest point, g the ground
+    lslide   = sum_t sum_f c_tf c_t+1,f rho(|p_t+1,f - p_tf|_xy)   p the foot's centre, rho Charbonnier
+    lground  = sum_t sum_corners relu(g - z)^2
+
 2D residuals are in image units (per mille of the image height by default,
 `ReconstructionConfig.image_unit`), joint positions in a length unit (centimetres,
 `ReconstructionConfig.length_unit_m`), rotations in radians. The functions return one value per frame
@@ -49,7 +57,25 @@ def smoothness(points: torch.Tensor, unit_m: float) -> torch.Tensor:
     return (step * step).sum((-1, -2))
 
 
-def ground_penetration(foot_corners: torch.Tensor, unit_m: float) -> torch.Tensor:
-    """(T,) sum of squared depths (length units) of foot corners (T, ..., 3) below z = 0."""
-    below = torch.relu(-foot_corners[..., 2]) / unit_m
+def ground_penetration(foot_corners: torch.Tensor, unit_m: float, ground=0.0) -> torch.Tensor:
+    """(T,) sum of squared depths (length units) of foot corners (T, ..., 3) below z = ground."""
+    below = torch.relu(ground - foot_corners[..., 2]) / unit_m
     return (below * below).flatten(1).sum(-1)
+
+
+def contact_height(foot_corners: torch.Tensor, contacts: torch.Tensor, unit_m: float, ground=0.0) -> torch.Tensor:
+    """(T,) sum over the feet in contact (contacts (T, F) 0/1) of the squared height (length
+    units) of the foot's lowest corner above the ground (or below it); foot_corners (T, F, C, 3)."""
+    height = (foot_corners[..., 2].min(dim=-1).values - ground) / unit_m
+    return (contacts * height * height).sum(-1)
+
+
+def contact_sliding(foot_corners: torch.Tensor, contacts: torch.Tensor, unit_m: float, smooth: float = 0.1) -> torch.Tensor:
+    """(T-1,) sum over the feet in contact at both ends of a frame pair of the horizontal step
+    (length units) of the foot's centre (the mean of its corners (T, F, C, 3)), as the
+    Charbonnier sqrt(step^2 + smooth^2) - smooth: near zero it pins the foot as an L1 term does,
+    and a foot the estimator calls down while it swings pays linearly, not quadratically."""
+    centre = foot_corners[..., :2].mean(dim=-2) / unit_m
+    step = centre[1:] - centre[:-1]
+    held = contacts[1:] * contacts[:-1]
+    return (held * ((step * step).sum(-1) + smooth * smooth).sqrt() - held * smooth).sum(-1)

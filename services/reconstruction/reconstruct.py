@@ -8,8 +8,10 @@
    onto the 2D keypoints; the ground goes under the lowest foot of most frames.
 3. All frames are optimised together with Adam on
        l_rec = 10 l2D + 100 l3D + 25 lsm  (+ 100 x ground penetration)
-   over the per-frame root positions, root rotations and joint exponential coordinates,
-   joints clamped to their limits after every step (`losses.py`). Units, which decide how
+             (+ 100 lcontact + 100 lslide where the foot-contact estimator says a foot is down)
+   over the per-frame root positions, root rotations and joint exponential coordinates (and,
+   with contacts, the ground height: `contact_fit.py`), joints clamped to their limits after
+   every step (`losses.py`). Units, which decide how
    the paper's weights balance: l2D in per mille of the image height (confidence x L1),
    l3D in radians (root and 12 joint rotations against q_hat_t, weighted by
    w_t = exp(-delta_t), delta_t the weighted mean reprojection error of q_hat_t in the same
@@ -17,12 +19,15 @@
    term is averaged over frames, so the balance does not depend on the clip's length.
    The camera itself is not optimised: with a free root trajectory, moving the camera and
    the whole motion together changes no loss term (see `camera.py`).
-4. The motion is shifted so that its lowest foot point touches z = 0 and its first root
-   position is above the origin, and saved with the keypoints it was made from.
+4. The motion is shifted so that the ground is z = 0 (without contacts: its lowest foot point
+   of the clip touches it) and its first root position is above the origin; a frame whose foot
+   still dips below the ground is lifted out of it. It is saved with the keypoints it was made
+   from (and the contacts it was fitted to).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 import torch
@@ -39,6 +44,7 @@ from services.reconstruction.camera import (
     fit_translations,
 )
 from services.reconstruction.config import ReconstructionConfig
+from services.reconstruction.contact_fit import ground_parameter, initial_ground, lift_out_of_ground
 from services.reconstruction.initial_fit import fit_poses_to_points
 from services.reconstruction.keypoints import (
     FIT_WEIGHTS,
@@ -49,6 +55,8 @@ from services.reconstruction.keypoints import (
 )
 from services.reconstruction.label_flips import find_label_flips, undo_label_flips
 from services.reconstruction.losses import (
+    contact_height,
+    contact_sliding,
     ground_penetration,
     prediction_consistency,
     reprojection_error,
@@ -56,7 +64,11 @@ from services.reconstruction.losses import (
     smoothness,
 )
 
-GROUND_PERCENTILE = 10.0  # of the per-frame lowest foot point, placed on the ground before optimising
+CONTACT_FEET = ("right", "left")  # the order of the feet in contact arrays, as `body.FOOT_LINKS`
+LOSS_NAMES = ("l2d", "l3d", "lsm", "ground", "contact", "slide")
+# (track, label_flipped (T,)) -> (probabilities (T, 2), flags (T, 2) bool), feet in CONTACT_FEET
+# order: `services.contacts.estimator.track_contacts` (above this package, so it is passed in).
+ContactEstimate = Callable[[object, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
 @dataclass
@@ -68,6 +80,7 @@ class Setup:
     weights: np.ndarray  # (T, P) confidence x point weight of the 2D loss
     frame_weights: np.ndarray  # (T,) w_t = exp(-delta_t)
     px_to_unit: float  # pixels -> image units (per mille of the image height)
+    contacts: np.ndarray | None = None  # (T, 2) feet down (CONTACT_FEET order); None: no contact terms
 
 
 def check_track(track, source: str) -> None:
@@ -89,7 +102,7 @@ def _poses(params: PoseParams, root_pos=None):
 
 
 def initialise(obs: ObservedPoints, image_size: tuple[int, int], config: ReconstructionConfig,
-               dtype: torch.dtype) -> Setup:
+               dtype: torch.dtype, contacts: np.ndarray | None = None) -> Setup:
     width, height = image_size
     focal = default_focal(image_size, config.focal_length_px)
     principal = np.array([(width - 1) / 2.0, (height - 1) / 2.0])
@@ -116,34 +129,44 @@ def initialise(obs: ObservedPoints, image_size: tuple[int, int], config: Reconst
     seen = weights.sum(axis=1) > 0
     frame_weights[~seen] = frame_weights[seen].min() if seen.any() else 1.0
 
-    # The ground: most frames have a foot on it, so a low percentile of the lowest foot point.
-    ground = np.percentile(corners[..., 2].flatten(1).min(dim=1).values.double().numpy(), GROUND_PERCENTILE)
+    ground = initial_ground(corners.double().numpy(), contacts)
     with torch.no_grad():
         predicted.root_pos[:, 2] -= ground
     camera = camera.shifted(np.array([0.0, 0.0, -ground]))
-    return Setup(camera, predicted, weights, frame_weights, px_to_unit)
+    return Setup(camera, predicted, weights, frame_weights, px_to_unit, contacts)
 
 
-def loss_terms(params: PoseParams, setup: Setup, observed: torch.Tensor, weights: torch.Tensor,
+def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed: torch.Tensor, weights: torch.Tensor,
                predicted_rotations: torch.Tensor, frame_weights: torch.Tensor, config: ReconstructionConfig) -> dict:
-    """The four terms, each averaged over frames (lsm: summed over frame pairs / T)."""
+    """The terms of LOSS_NAMES, each averaged over frames (lsm, slide: summed over frame pairs / T);
+    the contact terms are 0 without contacts."""
     fit, corners = _poses(params)
     frames = fit.shape[0]
     rotations = torch.cat((params.root_quat().unsqueeze(-2), params.joint_quats()), dim=-2)
-    return {
+    unit = config.length_unit_m
+    terms = {
         "l2d": reprojection_l1(setup.camera.project_torch(fit), observed, weights, setup.px_to_unit).mean(),
         "l3d": prediction_consistency(rotations, predicted_rotations, frame_weights).mean(),
-        "lsm": smoothness(fit[:, :NUM_JOINT_KEYPOINTS], config.length_unit_m).sum() / frames,
-        "ground": ground_penetration(corners, config.length_unit_m).mean(),
+        "lsm": smoothness(fit[:, :NUM_JOINT_KEYPOINTS], unit).sum() / frames,
+        "ground": ground_penetration(corners, unit, ground).mean(),
+        "contact": torch.zeros((), dtype=fit.dtype),
+        "slide": torch.zeros((), dtype=fit.dtype),
     }
+    if setup.contacts is not None:
+        contacts = torch.as_tensor(setup.contacts, dtype=fit.dtype)
+        terms["contact"] = contact_height(corners, contacts, unit, ground).mean()
+        terms["slide"] = contact_sliding(corners, contacts, unit).sum() / frames
+    return terms
 
 
 def total_loss(terms: dict, config: ReconstructionConfig) -> torch.Tensor:
     return (config.w_2d * terms["l2d"] + config.w_3d * terms["l3d"] + config.w_smooth * terms["lsm"]
-            + config.w_ground * terms["ground"])
+            + config.w_ground * terms["ground"] + config.w_contact * terms["contact"] + config.w_slide * terms["slide"])
 
 
-def optimise(setup: Setup, obs: ObservedPoints, config: ReconstructionConfig, dtype: torch.dtype) -> tuple[PoseParams, dict]:
+def optimise(setup: Setup, obs: ObservedPoints, config: ReconstructionConfig,
+             dtype: torch.dtype) -> tuple[PoseParams, float, dict]:
+    """The optimised poses, the ground height they stand on (0 without contacts) and the final terms."""
     predicted = setup.predicted
     with torch.no_grad():
         predicted_rotations = torch.cat((predicted.root_quat().unsqueeze(-2), predicted.joint_quats()), dim=-2)
@@ -152,25 +175,30 @@ def optimise(setup: Setup, obs: ObservedPoints, config: ReconstructionConfig, dt
     observed = torch.as_tensor(obs.keypoints2d, dtype=dtype)
     weights = torch.as_tensor(setup.weights, dtype=dtype)
     frame_weights = torch.as_tensor(setup.frame_weights, dtype=dtype)
+    ground = ground_parameter(setup.contacts is not None, dtype)
     optimiser = torch.optim.Adam([
-        {"params": [params.root_pos], "lr": config.lr_position},
+        {"params": [params.root_pos] + ([ground] if ground.requires_grad else []), "lr": config.lr_position},
         {"params": params.rotation_leaves(), "lr": config.lr_rotation},
     ])
     decay = torch.optim.lr_scheduler.ExponentialLR(optimiser, gamma=config.final_lr_fraction ** (1.0 / max(config.iterations, 1)))
     for _ in range(config.iterations):
         optimiser.zero_grad(set_to_none=True)
-        loss = total_loss(loss_terms(params, setup, observed, weights, predicted_rotations, frame_weights, config), config)
+        loss = total_loss(loss_terms(params, ground, setup, observed, weights, predicted_rotations, frame_weights, config),
+                          config)
         loss.backward()
         optimiser.step()
         decay.step()
         params.clamp_to_limits()
     with torch.no_grad():
-        terms = loss_terms(params, setup, observed, weights, predicted_rotations, frame_weights, config)
-    return params, {k: float(v) for k, v in terms.items()}
+        terms = loss_terms(params, ground, setup, observed, weights, predicted_rotations, frame_weights, config)
+    return params, float(ground.detach()[0]), {k: float(v) for k, v in terms.items()}
 
 
-def reconstruct_track(track, config: ReconstructionConfig | None = None, name: str = "reconstruction") -> ReferenceMotion:
-    """A humanoid ReferenceMotion from a `services.pose.PoseTrack` (see the module docstring).
+def reconstruct_track(track, config: ReconstructionConfig | None = None, name: str = "reconstruction",
+                      contact_estimate: ContactEstimate | None = None) -> ReferenceMotion:
+    """A humanoid ReferenceMotion from a `services.pose.PoseTrack` (see the module docstring);
+    `contact_estimate` (None: no contacts) gives the feet that are down, which the contact terms
+    put on the ground (`config.w_contact` > 0) and the motion records.
 
     extras of the motion: keypoint_names (12,), keypoints3d (T, 12, 3) the humanoid's joints
     in the world (metres), raw_keypoints3d (T, 12, 3) BlazePose's world landmarks as
@@ -178,8 +206,10 @@ def reconstruct_track(track, config: ReconstructionConfig | None = None, name: s
     positions, keypoints2d (T, 12, 2) and confidence (T, 12) the 2D keypoints the fit used
     (left/right as corrected), label_flipped (T,) frames whose left/right reading was
     undone, reprojection_error_px (T,) the motion's confidence-weighted mean 2D error,
-    fps, and the camera: camera_rotation (3, 3) world -> camera, camera_position (3,),
-    camera_intrinsics (3, 3), image_size (2,) (width, height).
+    fps, the camera: camera_rotation (3, 3) world -> camera, camera_position (3,),
+    camera_intrinsics (3, 3), image_size (2,) (width, height), final_losses with their
+    final_loss_names; with a contact estimate also contact_probability (T, 2), contacts (T, 2)
+    bool and contact_feet (2,).
     """
     config = config or ReconstructionConfig()
     check_track(track, name)
@@ -187,28 +217,46 @@ def reconstruct_track(track, config: ReconstructionConfig | None = None, name: s
     raw = observe(track)
     flips = find_label_flips(raw, config.flip_overrule_cost) if config.fix_label_flips else np.zeros(len(raw), bool)
     obs = undo_label_flips(raw, flips)
-    setup = initialise(obs, tuple(track.image_size), config, dtype)
-    params, terms = optimise(setup, obs, config, dtype)
-    return build_motion(name, float(track.fps), params, setup, obs, raw, flips, terms)
+    contact_extras, fitted = {}, None
+    if contact_estimate is not None:
+        probabilities, flags = contact_estimate(track, flips)
+        contact_extras = {"contact_probability": np.asarray(probabilities), "contacts": np.asarray(flags, bool),
+                          "contact_feet": np.array(CONTACT_FEET)}
+        fitted = contact_extras["contacts"] if config.w_contact > 0 and contact_extras["contacts"].any() else None
+    setup = initialise(obs, tuple(track.image_size), config, dtype, fitted)
+    params, ground, terms = optimise(setup, obs, config, dtype)
+    motion = build_motion(name, float(track.fps), params, ground, setup, obs, raw, flips, terms)
+    motion.extras.update(contact_extras)
+    return motion
 
 
-def build_motion(name: str, fps: float, params: PoseParams, setup: Setup, obs: ObservedPoints,
+def placement(root_pos: np.ndarray, corners: np.ndarray, ground: float, fitted_ground: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The shift (3,) that puts the ground at z = 0 (without a fitted ground: the clip's lowest
+    foot point) and the first root above the origin, and each frame's lift (T,) out of the ground."""
+    floor = ground if fitted_ground else corners[..., 2].min()
+    shift = np.array([-root_pos[0, 0], -root_pos[0, 1], -floor])
+    return shift, lift_out_of_ground(corners + shift)
+
+
+def build_motion(name: str, fps: float, params: PoseParams, ground: float, setup: Setup, obs: ObservedPoints,
                  raw: ObservedPoints, flips: np.ndarray, terms: dict) -> ReferenceMotion:
     pose = params.numpy()
     with torch.no_grad():
         fit, corners = _poses(params)
-        projected = setup.camera.project_torch(fit).double()
-        error_px = reprojection_error(projected, torch.as_tensor(obs.keypoints2d), torch.as_tensor(setup.weights), 1.0).numpy()
     fit, corners = fit.double().numpy(), corners.double().numpy()
-    # Lowest foot point on the ground, first root position above the origin.
-    shift = np.array([-pose["root_pos"][0, 0], -pose["root_pos"][0, 1], -corners[..., 2].min()])
+    shift, lift = placement(pose["root_pos"], corners, ground, setup.contacts is not None)
+    lifted = np.zeros((len(lift), 3))
+    lifted[:, 2] = lift
+    fit = fit + shift + lifted[:, None]
     camera = setup.camera.shifted(shift)
+    error_px = reprojection_error(camera.project_torch(torch.as_tensor(fit)), torch.as_tensor(obs.keypoints2d),
+                                  torch.as_tensor(setup.weights), 1.0).numpy()
     initial_root = setup.predicted.root_pos.detach().double().numpy()
     raw_world = raw.points3d[:, :NUM_JOINT_KEYPOINTS] @ setup.camera.rotation + initial_root[:, None] + shift
     frames = len(obs)
     extras = {
         "keypoint_names": np.array(JOINT_KEYPOINTS),
-        "keypoints3d": fit[:, :NUM_JOINT_KEYPOINTS] + shift,
+        "keypoints3d": fit[:, :NUM_JOINT_KEYPOINTS],
         "raw_keypoints3d": raw_world,
         "keypoints2d": obs.keypoints2d[:, :NUM_JOINT_KEYPOINTS],
         "confidence": obs.confidence[:, :NUM_JOINT_KEYPOINTS],
@@ -219,12 +267,13 @@ def build_motion(name: str, fps: float, params: PoseParams, setup: Setup, obs: O
         "camera_position": camera.position,
         "camera_intrinsics": camera.intrinsics,
         "image_size": np.array(camera.image_size),
-        "final_losses": np.array([terms["l2d"], terms["l3d"], terms["lsm"], terms["ground"]]),
+        "final_losses": np.array([terms[k] for k in LOSS_NAMES]),
+        "final_loss_names": np.array(LOSS_NAMES),
     }
     return ReferenceMotion(
         name=name,
         frame_times=np.arange(frames) / fps,
-        root_pos=pose["root_pos"] + shift,
+        root_pos=pose["root_pos"] + shift + lifted,
         root_rot=qn.quat_normalize(pose["root_quat"]),
         joint_rot=qn.quat_normalize(pose["joint_quats"]),
         loop=False,

@@ -1,8 +1,9 @@
 """A pose track made from a known humanoid motion seen by a known camera, with the noise of a
 per-frame estimator added: ground truth for testing and benchmarking the reconstruction.
 
-The humanoid sways, bends its knees and swings its arms (every joint inside its limits,
-feet on or above the ground) while walking slowly past the camera. Its fit points are
+`make_clip`: the humanoid sways, bends its knees and swings its arms (every joint inside its
+limits, feet on or above the ground) while walking slowly past the camera.
+`make_standing_clip`: it stands on both feet while the estimator misreads one foot as lifted. Its fit points are
 projected through the camera (2D keypoints, plus pixel noise) and expressed hip-centred in
 the camera's axes (the "3D prediction", plus per-frame noise in metres: the jitter the
 reconstruction should remove).
@@ -68,6 +69,48 @@ def _landmarks(fit: np.ndarray, neck_left: np.ndarray) -> np.ndarray:
     return landmarks
 
 
+def _standard_camera(image_size: tuple[int, int], focal: float) -> PinholeCamera:
+    """A camera 4 m in front (along -y), 1.2 m up, looking 10 degrees down."""
+    pitch = np.deg2rad(10.0)
+    up_cam = np.array([0.0, -np.cos(pitch), -np.sin(pitch)])
+    return PinholeCamera(camera_rotation_from_up(up_cam), np.array([0.0, -4.0, 1.2]), focal,
+                         np.array([(image_size[0] - 1) / 2, (image_size[1] - 1) / 2]), tuple(image_size))
+
+
+def _posed(root_pos, root_quat, spherical, revolute, per_frame_ground: bool):
+    """Fit points (T, P, 3), root positions, joint quaternions and foot corners of a pose
+    trajectory lifted so that its lowest foot point touches z = 0 (every frame's, or the clip's)."""
+    params = PoseParams.create(root_pos, root_quat, spherical, revolute)
+    with torch.no_grad():
+        fit, corners = body_points(params.root_pos, params.root_quat(), params.joint_quats())
+        joint_quats = params.joint_quats().numpy()
+    fit, corners = fit.numpy(), corners.numpy()
+    lowest = corners[..., 2].reshape(len(fit), -1).min(axis=1)
+    lift = -lowest if per_frame_ground else np.full(len(fit), -lowest.min())
+    return fit + lift[:, None, None] * np.array([0.0, 0.0, 1.0]), root_pos + lift[:, None] * np.array([0.0, 0.0, 1.0]), \
+        joint_quats, corners + lift[:, None, None, None] * np.array([0.0, 0.0, 1.0])
+
+
+def _seen(fit, root_quat, joint_quats, camera: PinholeCamera, fps: float, pixel_noise: float, depth_noise_m: float,
+          rng: np.random.Generator, misread=None) -> PoseTrack:
+    """The pose track a per-frame estimator gives of the fit points (`misread`: landmarks
+    -> landmarks, an estimator's systematic error, applied before the noise)."""
+    neck_left = qn.quat_rotate(qn.quat_mul(root_quat, joint_quats[:, 0]), np.array([0.0, 1.0, 0.0]))  # chest's +y
+    world_landmarks = _landmarks(fit, neck_left)
+    if misread is not None:
+        world_landmarks = misread(world_landmarks)
+    keypoints2d = camera.project(world_landmarks) + rng.normal(0.0, pixel_noise, world_landmarks.shape[:-1] + (2,))
+    hips = world_landmarks[:, [KEYPOINT_NAMES.index("left_hip"), KEYPOINT_NAMES.index("right_hip")]].mean(axis=1)
+    world3d = (world_landmarks - hips[:, None]) @ camera.rotation.T + rng.normal(0.0, depth_noise_m, world_landmarks.shape)
+    frames = len(fit)
+    return PoseTrack(
+        fps=fps, image_size=tuple(camera.image_size),
+        keypoints2d=keypoints2d.astype(np.float32), confidence=np.full((frames, len(KEYPOINT_NAMES)), 0.95, np.float32),
+        world3d=world3d.astype(np.float32), valid=np.ones(frames, bool), presence=np.ones(frames, np.float32),
+        rotation_used=np.zeros(frames, np.int16), filled_frames=0,
+    )
+
+
 def make_clip(frames: int = 40, fps: float = 30.0, image_size: tuple[int, int] = (640, 480), focal: float = 600.0,
               pixel_noise: float = 2.0, depth_noise_m: float = 0.04, seed: int = 0) -> SyntheticClip:
     rng = np.random.default_rng(seed)
@@ -76,31 +119,39 @@ def make_clip(frames: int = 40, fps: float = 30.0, image_size: tuple[int, int] =
     yaw = 0.3 * np.sin(2.0 * np.pi * 0.3 * t) - np.pi / 2  # facing the camera (-y), turning a little
     root_quat = qn.quat_from_axis_angle(np.stack((np.zeros(frames), np.zeros(frames), yaw), axis=-1))
     root_pos = np.stack((0.3 * t - 0.15 * t[-1], np.zeros(frames), np.full(frames, 1.0)), axis=-1)
-    params = PoseParams.create(root_pos, root_quat, spherical, revolute)
-    with torch.no_grad():
-        fit, corners = body_points(params.root_pos, params.root_quat(), params.joint_quats())
-        joint_quats = params.joint_quats().numpy()
-    fit, corners = fit.numpy(), corners.numpy()
-    lift = -corners[..., 2].min()  # lowest foot point on the ground
-    fit[..., 2] += lift
-    root_pos = root_pos + np.array([0.0, 0.0, lift])
+    fit, root_pos, joint_quats, _ = _posed(root_pos, root_quat, spherical, revolute, per_frame_ground=False)
+    camera = _standard_camera(image_size, focal)
+    track = _seen(fit, root_quat, joint_quats, camera, fps, pixel_noise, depth_noise_m, rng)
+    return SyntheticClip(track, camera, fit[:, :NUM_JOINT_KEYPOINTS], root_pos, root_quat, joint_quats)
 
-    # A camera 4 m in front (along -y), 1.2 m up, looking slightly down.
-    pitch = np.deg2rad(10.0)
-    up_cam = np.array([0.0, -np.cos(pitch), -np.sin(pitch)])
-    rotation = camera_rotation_from_up(up_cam)
-    centre = np.array([0.0, -4.0, 1.2])
-    camera = PinholeCamera(rotation, centre, focal, np.array([(image_size[0] - 1) / 2, (image_size[1] - 1) / 2]),
-                           tuple(image_size))
-    neck_left = qn.quat_rotate(qn.quat_mul(root_quat, joint_quats[:, 0]), np.array([0.0, 1.0, 0.0]))  # chest's +y
-    world_landmarks = _landmarks(fit, neck_left)
-    keypoints2d = camera.project(world_landmarks) + rng.normal(0.0, pixel_noise, world_landmarks.shape[:-1] + (2,))
-    hips = world_landmarks[:, [KEYPOINT_NAMES.index("left_hip"), KEYPOINT_NAMES.index("right_hip")]].mean(axis=1)
-    world3d = (world_landmarks - hips[:, None]) @ rotation.T + rng.normal(0.0, depth_noise_m, world_landmarks.shape)
-    track = PoseTrack(
-        fps=fps, image_size=tuple(image_size),
-        keypoints2d=keypoints2d.astype(np.float32), confidence=np.full((frames, len(KEYPOINT_NAMES)), 0.95, np.float32),
-        world3d=world3d.astype(np.float32), valid=np.ones(frames, bool), presence=np.ones(frames, np.float32),
-        rotation_used=np.zeros(frames, np.int16), filled_frames=0,
-    )
+
+RIGHT_FOOT_LANDMARKS = ("right_ankle", "right_heel", "right_foot_index")
+
+
+def make_standing_clip(frames: int = 30, fps: float = 30.0, image_size: tuple[int, int] = (640, 480),
+                       focal: float = 600.0, right_foot_misread_m: float = 0.08, pixel_noise: float = 1.0,
+                       depth_noise_m: float = 0.02, seed: int = 0) -> SyntheticClip:
+    """A person standing on both feet, facing the camera, moving the arms and upper body, whom
+    the estimator reads with the right foot `right_foot_misread_m` higher than it is (in 2D and
+    3D alike, as BlazePose reads a foot it sees end-on): a reconstruction that believes the
+    keypoints lifts that foot off the floor, though both feet are down in every frame."""
+    rng = np.random.default_rng(seed)
+    spherical, revolute = _joint_motion(frames, fps)
+    legs = [k for k, j in enumerate(SPHERICAL_JOINTS) if "hip" in JOINT_NAMES[j] or "ankle" in JOINT_NAMES[j]]
+    spherical[:, legs] = 0.0  # straight legs, feet flat: both soles on the floor
+    knees = np.isin([JOINT_NAMES[j] for j in REVOLUTE_JOINTS], ("right_knee", "left_knee"))
+    revolute[:, knees] = 0.0
+    yaw = np.full(frames, -np.pi / 2)
+    root_quat = qn.quat_from_axis_angle(np.stack((np.zeros(frames), np.zeros(frames), yaw), axis=-1))
+    fit, root_pos, joint_quats, _ = _posed(np.tile([0.0, 0.0, 1.0], (frames, 1)), root_quat, spherical, revolute,
+                                           per_frame_ground=True)
+    camera = _standard_camera(image_size, focal)
+    lifted = [KEYPOINT_NAMES.index(n) for n in RIGHT_FOOT_LANDMARKS]
+
+    def misread(landmarks):
+        landmarks = landmarks.copy()
+        landmarks[:, lifted, 2] += right_foot_misread_m
+        return landmarks
+
+    track = _seen(fit, root_quat, joint_quats, camera, fps, pixel_noise, depth_noise_m, rng, misread)
     return SyntheticClip(track, camera, fit[:, :NUM_JOINT_KEYPOINTS], root_pos, root_quat, joint_quats)

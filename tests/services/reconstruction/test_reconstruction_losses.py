@@ -19,6 +19,8 @@ from services.reconstruction.keypoints import NUM_FIT, NUM_JOINT_KEYPOINTS, fit_
 from services.reconstruction.kinematics_torch import forward_kinematics_torch, joint_quats_from_params_torch
 from services.reconstruction.label_flips import find_label_flips, mirrored_reading, undo_label_flips
 from services.reconstruction.losses import (
+    contact_height,
+    contact_sliding,
     ground_penetration,
     prediction_consistency,
     reprojection_error,
@@ -97,6 +99,32 @@ def test_lsm_is_zero_for_a_constant_pose_and_squares_displacements():
 def test_ground_penalty_counts_only_points_below_the_ground():
     corners = torch.tensor([[[0.0, 0.0, 0.1], [0.0, 0.0, -0.02]], [[0.0, 0.0, 0.0], [1.0, 1.0, 0.5]]], dtype=torch.float64)
     assert torch.allclose(ground_penetration(corners, 0.01), torch.tensor([4.0, 0.0], dtype=torch.float64))
+
+
+def test_contact_height_counts_the_lowest_corner_of_feet_in_contact_either_side_of_the_ground():
+    corners = torch.zeros((2, 2, 8, 3), dtype=torch.float64)
+    corners[..., 2] = 0.2
+    corners[0, 0, 5, 2] = 0.03  # right foot's lowest corner 3 cm up
+    corners[1, 1, 2, 2] = -0.01  # left foot 1 cm down
+    contacts = torch.tensor([[1.0, 0.0], [1.0, 1.0]], dtype=torch.float64)
+    assert torch.allclose(contact_height(corners, contacts, 0.01), torch.tensor([9.0, 400.0 + 1.0], dtype=torch.float64))
+    # against a ground 20 cm up: the right foot is 17 cm below it, the left 21 cm
+    assert torch.allclose(contact_height(corners, contacts, 0.01, ground=0.2), torch.tensor([289.0, 441.0],
+                                                                                           dtype=torch.float64))
+
+
+def test_contact_sliding_counts_steps_of_feet_down_at_both_ends_robustly():
+    corners = torch.zeros((3, 2, 8, 3), dtype=torch.float64)
+    corners[1, 0, :, 0] = 0.03  # the right foot steps 3 cm, then 4 cm back and up
+    corners[2, 0, :, 0] = -0.01
+    corners[2, 1, :, 1] = 0.5  # the left foot jumps, but it is in the air at frame 2
+    contacts = torch.tensor([[1.0, 1.0], [1.0, 1.0], [1.0, 0.0]], dtype=torch.float64)
+    slide = contact_sliding(corners, contacts, 0.01, smooth=0.1)
+    expected = torch.tensor([np.hypot(3.0, 0.1) - 0.1, np.hypot(4.0, 0.1) - 0.1], dtype=torch.float64)
+    assert torch.allclose(slide, expected)
+    # about linear for a long step (a squared term would grow 100 times): a foot called down while
+    # it swings does not dominate the loss
+    assert float(contact_sliding(corners * 10, contacts, 0.01)[1]) < 11.0 * float(slide[1])
 
 
 def test_joint_clamp_puts_every_parameter_inside_its_limits():

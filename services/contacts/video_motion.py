@@ -1,0 +1,43 @@
+"""Video pose track -> the motion file every command writes: one path for `sfv reconstruct`,
+the static `sfv pipeline` and `sfv pipeline --camera moving`.
+
+The track is cut to the frames where the subject is seen (`video_start_frame` says where the
+motion starts in the video), the camera decided (static / moving / auto from the background's
+motion), and the reconstruction (a Ray task or in this process) is given the learned
+foot-contact estimate, which it records and, for a static camera, fits the feet to (feet on the
+ground and not sliding where they are down, `services/reconstruction/contact_fit.py`). A moving
+camera keeps the contacts as cues only: the static-camera world the fit uses moves with the
+pan, so a foot held still there would fight the keypoints; its motion is written root-free.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+
+@dataclass
+class VideoMotion:
+    motion: object  # actors.motion.reference_motion.ReferenceMotion with the video's extras
+    track: object  # the services.pose.PoseTrack it was made from (cut to the subject's frames)
+    path: object  # services.pose.camera_path.CameraPath, or None where the track did not measure it
+    moving: bool
+
+
+def video_motion(track, config, name: str, camera: str, source: str, use_ray: bool = True) -> VideoMotion:
+    """The reconstruction of `track` (from `source`, a file name for error lines) with its extras."""
+    from services.contacts.estimator import track_contacts
+    from services.contacts.video_extras import video_extras
+    from services.pose.camera_path import camera_path, decide_camera
+    from services.pose.subject import crop_to_seen
+    from services.reconstruction import reconstruct_on_ray, reconstruct_track
+    from services.reconstruction.root_free import make_root_free
+
+    track = crop_to_seen(track, source)
+    path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
+    moving = decide_camera(camera, path, track.image_size[0], source)
+    if moving:
+        config = dataclasses.replace(config, w_contact=0.0, w_slide=0.0)
+    reconstruct = reconstruct_on_ray if use_ray else reconstruct_track
+    motion = reconstruct(track, config, name, track_contacts)
+    motion.extras.update(video_extras(track, path, moving))
+    return VideoMotion(make_root_free(motion) if moving else motion, track, path, moving)
