@@ -237,12 +237,12 @@ def first_frame_episode(policy, env: ImitationEnv, seed: int = 0) -> dict:
 
 
 # --------------------------------------------------------------------------- runs / CLI
-def with_physics_rate(env_config, physics_hz: float):
-    """The env settings at another physics rate, refused in one line unless it is a whole
-    multiple of the control rate (the policy acts at the rate it was trained at)."""
+def with_physics_rate(env_config, physics_hz: float, flag: str = "--physics-hz"):
+    """The env settings at another physics rate, refused in one line (naming `flag`) unless it
+    is a whole multiple of the control rate (the policy acts at the rate it was trained at)."""
     ratio = physics_hz / env_config.control_hz
     if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
-        raise SfvError(f"--physics-hz {physics_hz:g} must be a whole multiple of the run's control rate {env_config.control_hz:g} Hz")
+        raise SfvError(f"{flag} {physics_hz:g} must be a whole multiple of the run's control rate {env_config.control_hz:g} Hz")
     return dataclasses.replace(env_config, physics=dataclasses.replace(env_config.physics, physics_hz=float(physics_hz)))
 
 

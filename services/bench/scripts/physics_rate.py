@@ -11,7 +11,6 @@ settings at each `--hz`, one line and one JSON row per rate.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import sys
 import time
@@ -19,9 +18,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
 
-from actors.motion.formats.io import load_motion  # noqa: E402
 from learner.errors import SfvError  # noqa: E402
-from services.training.evaluation import evaluate_policy, make_eval_env  # noqa: E402
+from services.training.evaluation import evaluate_policy, make_eval_env, with_physics_rate  # noqa: E402
 from services.training.policy_source import load_policy_source  # noqa: E402
 from services.training.run_dir import write_json_atomic  # noqa: E402
 
@@ -31,14 +29,10 @@ def evaluate_at_rates(run: str, rates: list[float], episodes: int, seed: int = 0
     from threadpoolctl import threadpool_limits
 
     source = load_policy_source(run)
-    motion = load_motion(source.motion)
+    motion = source.reference()
     rows = []
     for hz in rates:
-        config = dataclasses.replace(source.env_config, physics=dataclasses.replace(source.env_config.physics, physics_hz=hz))
-        try:
-            config.substeps  # noqa: B018  (a whole number of physics steps per control step, or ValueError)
-        except ValueError as exc:
-            raise SfvError(f"--hz {hz:g}: {exc}") from None
+        config = with_physics_rate(source.env_config, hz, flag="--hz")
         started = time.perf_counter()
         with threadpool_limits(1, user_api="blas"):
             result = evaluate_policy(source.policy, make_eval_env(motion, config), episodes, seed)
