@@ -213,7 +213,9 @@ class Trainer:
             losses.update(learner.set_progress(self.samples))  # for the next batch
             record = self._record(batch, losses, n, time.perf_counter() - t0, t_sample, asi_version)
             if self.asi_drift is not None:
-                record.update(self.asi_drift(asi_version))
+                # The server's own version: an embedded server restarts its job at 0 on --resume,
+                # below the checkpoint's, and the drift must still follow its updates.
+                record.update(self.asi_drift(int(batch["asi_version"])))
             record.update(coverage)
             if evaluator.due(samples_before, self.samples, last=self.samples >= config.samples):
                 try:  # the current weights on strict episodes; figures land in metrics.jsonl and TensorBoard

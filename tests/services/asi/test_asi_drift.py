@@ -41,3 +41,23 @@ def test_rsi_runs_have_no_asi_figures(tmp_path):
     config.ppo.policy_hidden = config.ppo.value_hidden = (16,)
     Trainer(config, progress=False).run()
     assert "asi/mean_shift_sigma" not in (tmp_path / "rsi" / METRICS_FILE).read_text()
+
+
+def test_the_figures_follow_the_embedded_server_after_a_resume(tmp_path):
+    # The embedded server starts its job again at version 0 on --resume, below the checkpoint's
+    # version; the figures must follow its new updates, not wait until it passes the old count.
+    def run(samples: int, resume: bool):
+        config = TrainConfig(out=str(tmp_path / "run"), workers=1, envs_per_worker=8, samples=samples, runner="in_process",
+                             torch_threads=1, eval_every=0, plot_every=0, asi_episodes_per_update=20)
+        config.ppo.batch_size = config.ppo.minibatch_size = 512
+        config.ppo.policy_hidden = config.ppo.value_hidden = (32,)
+        Trainer(config, resume=resume, progress=False).run()
+
+    run(5 * 512, resume=False)
+    rows = [json.loads(line) for line in (tmp_path / "run" / METRICS_FILE).read_text().splitlines()]
+    before = max(r["asi_version"] for r in rows)
+    run(7 * 512, resume=True)
+    rows = [json.loads(line) for line in (tmp_path / "run" / METRICS_FILE).read_text().splitlines()]
+    after = [r for r in rows if r["samples"] > 5 * 512 and "asi/mean_shift_sigma" in r]
+    assert before >= 3 and after, (before, [r["samples"] for r in rows])
+    assert after[0]["asi/mean_shift_sigma"] == 0.0  # the resumed process's first distribution
