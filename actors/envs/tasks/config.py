@@ -38,6 +38,11 @@ class TaskEnvConfig:
             object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
 
     @property
+    def character(self) -> str:
+        """The body the task envs build: the humanoid (the motor module's decoder speaks its joints)."""
+        return "humanoid3d"
+
+    @property
     def substeps(self) -> int:
         return control_substeps(self.physics, self.control_hz)
 
