@@ -31,6 +31,7 @@ from actors.character.humanoid3d import HUMANOID3D
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
 from learner.errors import NonFiniteError, SfvError
 from learner.ppo import PPOLearner
+from learner.schedule import linear_anneal
 from learner.tuple_sampling import select_tuples
 from services.training.asi_connection import ASIConnection
 from services.training.config import TrainConfig
@@ -105,8 +106,7 @@ class Trainer:
         c = self.config
         if c.curriculum_start_s <= 0 or self.samples >= c.curriculum_samples:
             return None
-        progress = self.samples / c.curriculum_samples
-        return c.curriculum_start_s + progress * (c.env.horizon_s - c.curriculum_start_s)
+        return linear_anneal(c.curriculum_start_s, c.env.horizon_s, self.samples, c.curriculum_samples)
 
     def _collect(self, weights, version: int, steps: int) -> list[dict]:
         horizon = self._horizon_s()

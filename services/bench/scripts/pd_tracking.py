@@ -27,6 +27,7 @@ from actors.envs.imitation_env import EnvConfig, ImitationEnv  # noqa: E402
 from actors.motion.formats.io import load_motion  # noqa: E402
 from learner.errors import SfvError  # noqa: E402
 from services.asi.distribution import InitialStateDistribution  # noqa: E402
+from services.training.evaluation import with_physics_rate  # noqa: E402
 from services.training.run_dir import write_json_atomic  # noqa: E402
 
 
@@ -99,8 +100,7 @@ def main(argv=None) -> int:
             motion = load_motion(clip if ":" in clip or "/" in clip or "." in clip else f"deepmimic:{clip}")
             for lead, rate in [(lead, rate) for lead in leads for rate in rates]:
                 config = EnvConfig()
-                config = dataclasses.replace(config, target_lead_s=lead / config.control_hz,
-                                             physics=dataclasses.replace(config.physics, physics_hz=rate))
+                config = with_physics_rate(dataclasses.replace(config, target_lead_s=lead / config.control_hz), rate)
                 env = ImitationEnv(motion, config)
                 for spread in spreads:
                     result = track(env, starts_for(env, args.episodes, spread, np.random.default_rng(0)),
