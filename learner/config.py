@@ -76,6 +76,10 @@ class PPOConfig:
     )
     optimizer: str = field(default="adam", metadata={"choices": ("adam", "sgd"), "help": "'adam' (default, faster) or 'sgd' (paper: SGD, momentum 0.9)"})
     policy_lr: float = field(default=5e-5, metadata={"help": "policy learning rate at the start (paper SGD: 2.5e-6)"})
+    desired_kl: float | None = field(
+        default=None,
+        metadata={"help": "adapt the policy learning rate after each minibatch to keep approx KL near this (rsl_rl, ProtoMotions: 0.01; learner/schedule.py); starts at policy_lr; None: policy_lr with its anneal"},
+    )
     policy_lr_final: float | None = field(
         default=None,
         metadata={"help": "policy learning rate reached after anneal_samples, linearly from policy_lr (None: constant)"},
@@ -121,7 +125,9 @@ class PPOConfig:
             problems.append(f"optimizer must be 'adam' or 'sgd', got {self.optimizer!r}")
         if self.tuple_sampling not in TUPLE_SAMPLING_MODES:
             problems.append(f"tuple_sampling must be one of {', '.join(TUPLE_SAMPLING_MODES)}, got {self.tuple_sampling!r}")
-        for name in ("policy_lr_final", "action_std_final"):
+        if self.desired_kl is not None and self.policy_lr_final is not None:
+            problems.append("desired_kl adapts the learning rate; it cannot also be annealed (policy_lr_final)")
+        for name in ("policy_lr_final", "action_std_final", "desired_kl"):
             if getattr(self, name) is not None and not getattr(self, name) > 0.0:
                 problems.append(f"{name} must be > 0 (or None)")
         for name in ("batch_size", "minibatch_size", "update_epochs", "tuples_per_episode", "anneal_samples"):

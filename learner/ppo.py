@@ -39,7 +39,7 @@ from learner.config import PPOConfig
 from learner.errors import BatchFormatError, NonFiniteError, SfvError
 from learner.networks import ObservationNormalizer, PolicyNetwork, ValueNetwork, linear_layers
 from learner.returns import gae_advantages, td_lambda_returns
-from learner.schedule import linear_anneal
+from learner.schedule import adapt_rate_to_kl, linear_anneal
 
 STATE_FORMAT_VERSION = 1
 FLOAT_ARRAYS = ("obs", "next_obs", "actions", "logp", "rewards")
@@ -146,6 +146,7 @@ class PPOLearner:
         self.value = ValueNetwork(obs_dim, cfg.value_hidden, self.torch_rng).to(self.device)
         self.normalizer = ObservationNormalizer(obs_dim, cfg.obs_clip, cfg.normalizer_max_samples).to(self.device)
         self.policy_optimizer = self._make_optimizer(self.policy, cfg.policy_lr)
+        self.policy_lr = float(cfg.policy_lr)  # the rate in force: annealed, or adapted to the KL
         self.value_optimizer = self._make_optimizer(self.value, cfg.value_lr)
 
     def _make_optimizer(self, network: torch.nn.Module, lr: float) -> torch.optim.Optimizer:
@@ -165,13 +166,18 @@ class PPOLearner:
         batch was sampled with.  Returns the values set (for the metrics).
         """
         cfg = self.config
-        lr = linear_anneal(cfg.policy_lr, cfg.policy_lr_final, samples, cfg.anneal_samples)
+        if cfg.desired_kl is None:
+            self.policy_lr = linear_anneal(cfg.policy_lr, cfg.policy_lr_final, samples, cfg.anneal_samples)
+        lr = self.policy_lr
         std = linear_anneal(cfg.action_std, cfg.action_std_final, samples, cfg.anneal_samples)
-        for group in self.policy_optimizer.param_groups:
-            group["lr"] = lr
+        self._set_policy_lr(lr)
         with torch.no_grad():
             self.policy.log_std.fill_(math.log(std))
         return {"charts/policy_lr": lr, "charts/action_std": std}
+
+    def _set_policy_lr(self, lr: float) -> None:
+        for group in self.policy_optimizer.param_groups:
+            group["lr"] = lr
 
     # ------------------------------------------------------------------ update
 
@@ -256,6 +262,9 @@ class PPOLearner:
             gradient_steps += 1
             for key, value in stats.items():
                 sums[key] = sums.get(key, 0.0) + value
+            if cfg.desired_kl is not None:
+                self.policy_lr = adapt_rate_to_kl(self.policy_lr, stats["approx_kl"], cfg.desired_kl)
+                self._set_policy_lr(self.policy_lr)
             if cfg.target_kl is not None and stats["approx_kl"] > cfg.target_kl:
                 break
 
@@ -264,6 +273,7 @@ class PPOLearner:
         metrics = {f"losses/{key}": total / gradient_steps for key, total in sums.items()}
         metrics["losses/explained_variance"] = explained_variance(values.ravel() if kept is None else values.ravel()[kept], value_targets)
         metrics["charts/gradient_steps"] = float(gradient_steps)
+        metrics["charts/policy_lr"] = self.policy_lr
         metrics["charts/normalizer_samples"] = float(self.normalizer.count)
         return metrics
 
@@ -354,6 +364,7 @@ class PPOLearner:
             "value_optimizer": self.value_optimizer.state_dict(),
             "numpy_rng": self.np_rng.bit_generator.state,
             "torch_rng": self.torch_rng.get_state(),
+            "policy_lr": self.policy_lr,
         }
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
@@ -375,7 +386,10 @@ class PPOLearner:
         self.normalizer.load_state_dict(state["normalizer"])
         self.policy_optimizer.load_state_dict(state["policy_optimizer"])
         self.value_optimizer.load_state_dict(state["value_optimizer"])
-        for optimizer, lr in ((self.policy_optimizer, self.config.policy_lr), (self.value_optimizer, self.config.value_lr)):
+        # An adapted rate is state, not a hyper-parameter: a resume continues from it.
+        adapted = self.config.desired_kl is not None and "policy_lr" in state
+        self.policy_lr = float(state["policy_lr"]) if adapted else float(self.config.policy_lr)
+        for optimizer, lr in ((self.policy_optimizer, self.policy_lr), (self.value_optimizer, self.config.value_lr)):
             for group in optimizer.param_groups:
                 group["lr"] = lr
         rng_state = state["numpy_rng"]

@@ -445,11 +445,27 @@ def _clear_unfinished(run_dir: Path) -> None:
 
 
 def _save(doc: dict, cell: Cell, entry: dict, config: LearningConfig) -> None:
+    """Record one run. Two suite invocations may share an out-dir (two streams of clips on two
+    cores): under a lock, the runs another invocation recorded since this one read the file are
+    merged in rather than overwritten; this invocation's own cell always wins."""
+    import fcntl
+
     from services.training.run_dir import write_json_atomic
 
-    doc["runs"][cell.name] = entry
-    doc["updated"] = _now()
-    write_json_atomic(Path(config.out_dir) / RESULTS_FILE, doc)
+    path = Path(config.out_dir) / RESULTS_FILE
+    with open(path.with_name(RESULTS_FILE + ".lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            on_disk = json.loads(path.read_text()) if path.exists() else {}
+        except (OSError, ValueError):
+            on_disk = {}  # a torn or foreign file: this document replaces it, as before
+        if isinstance(on_disk, dict) and isinstance(on_disk.get("runs"), dict):
+            for name, other in on_disk["runs"].items():
+                if name != cell.name:
+                    doc["runs"][name] = other
+        doc["runs"][cell.name] = entry
+        doc["updated"] = _now()
+        write_json_atomic(path, doc)
 
 
 def _start_ray(workers: int) -> bool:

@@ -21,7 +21,7 @@ class WorkerFaults:
     """Counters the driver records in metrics.jsonl and carries across --resume."""
 
     failures: int = 0  # batch shares lost to a dead, hung or failing worker and reissued
-    restarts: int = 0  # worker processes seen replaced (a new pid)
+    restarts: int = 0  # worker processes replaced (Ray: its per-actor restart count; otherwise a new pid)
 
 
 class WorkerRunner(ABC):

@@ -10,6 +10,7 @@ refuses) stops training with that message. docs/faults.md has the measured numbe
 from __future__ import annotations
 
 import time
+import uuid
 
 from learner.errors import SfvError
 from services.ray_session import connect_ray
@@ -23,39 +24,84 @@ class RayRunner(WorkerRunner):
         import ray
 
         connect_ray(self.config.ray_address, num_cpus=max(self.config.workers, 1))
-        remote_cls = ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=0)(self.worker_class)
-        self.workers = [remote_cls.remote(spec, i) for i in range(self.config.workers)]
+        # The spec (the motion, hand-over states: > 100 kB) is held by one small actor this runner
+        # owns; a worker's constructor takes only its name and fetches the spec, so a restarted
+        # worker fetches it again. A spec passed as an argument (or a reference to it) lives in
+        # the object store, which Ray does not keep for an actor's restart: ray-project/ray#53727,
+        # and an error line per training run saying so.
+        holder_name = f"sfv-spec-{uuid.uuid4().hex}"
+        self._spec_holder = _start_spec_holder(spec, holder_name)
+        remote_cls = ray.remote(num_cpus=1, max_restarts=-1, max_task_retries=0)(_spec_from_holder(self.worker_class))
+        self.workers = [remote_cls.remote(holder_name, i) for i in range(self.config.workers)]
         pids = ray.get([w.pid.remote() for w in self.workers])  # construction errors surface here
         self._pids = dict(enumerate(pids))
-        self._pid_probes: dict = {}  # pid() calls queued on workers that died or were killed -> index
+        self._restarts_seen = [0] * len(self.workers)  # Ray's own restart count per actor, as last read
 
     def _sample(self, weights, version, steps, options):
         import ray
 
         results = _Iteration(self, ray.put(weights), version, steps, options).run()
-        self._note_probed_pids()
+        self._count_restarts()
         return results
 
-    def probe_pid(self, index: int) -> None:
-        """Queue a pid() call on a worker Ray is restarting: it runs first in the new process, so
-        the restart is seen even if that process dies or hangs before it answers a sample()."""
-        self._pid_probes[self.workers[index].pid.remote()] = index
+    def _note_pid(self, index: int, pid: int) -> None:
+        if self._restarts_seen is None:  # no restart counts from Ray: a changed pid is the sign
+            super()._note_pid(index, pid)
+        else:
+            self._pids[index] = pid
 
-    def _note_probed_pids(self) -> None:
-        """Answered probes, before this iteration's results (an actor runs its calls in order, so a
-        probe queued before a sample() has answered when that sample() has)."""
-        import ray
-        from ray.exceptions import RayError
-
-        if not self._pid_probes:
+    def _count_restarts(self) -> None:
+        """Restarts as Ray's control store counts them per actor. Counting changed pids misses a
+        process that dies before it answers anything: a pid() call queued on an actor while Ray
+        restarts it can fail (ActorUnavailableError) rather than wait, seen on a loaded machine."""
+        if self._restarts_seen is None:
             return
-        ready, _ = ray.wait(list(self._pid_probes), num_returns=len(self._pid_probes), timeout=0)
-        for ref in ready:
-            index = self._pid_probes.pop(ref)
-            try:
-                self._note_pid(index, int(ray.get(ref)))
-            except RayError:  # that process died as well; its successor's answers will show
-                pass
+        try:
+            import ray._private.state as gcs_state
+
+            counts = [int(gcs_state.actors(actor_id=w._actor_id.hex())["NumRestarts"]) for w in self.workers]
+        except Exception as exc:  # a Ray without this table: fall back to watching the pids
+            log.warning("Ray's actor restart counts are unavailable (%s); counting changed worker pids instead", exc)
+            self._restarts_seen = None
+            return
+        for index, (count, seen) in enumerate(zip(counts, self._restarts_seen)):
+            if count > seen:
+                self.faults.restarts += count - seen
+                log.warning("rollout worker %d was restarted (%d time%s since the last iteration)", index, count - seen,
+                            "" if count - seen == 1 else "s")
+        self._restarts_seen = counts
+
+
+class _SpecHolder:
+    """The rollout spec, for the workers' constructors (first start and every restart)."""
+
+    def __init__(self, spec):
+        self.spec = spec
+
+    def get(self):
+        return self.spec
+
+
+def _start_spec_holder(spec, name: str):
+    """A named holder of `spec`, owned by this driver (it goes when the driver's Ray session does)."""
+    import ray
+
+    holder = ray.remote(num_cpus=0, max_restarts=0)(_SpecHolder).options(name=name).remote(spec)
+    ray.get(holder.get.remote())  # up and holding before any worker asks
+    return holder
+
+
+def _spec_from_holder(worker_class):
+    """`worker_class` built from `(holder_name, index)`: the spec is fetched in the actor's process."""
+
+    class FromHolder(worker_class):
+        def __init__(self, holder_name: str, index: int):
+            import ray
+
+            super().__init__(ray.get(ray.get_actor(holder_name).get.remote()), index)
+
+    FromHolder.__name__ = FromHolder.__qualname__ = worker_class.__name__  # Ray's actor name in logs and `ray list`
+    return FromHolder
 
 
 class _Iteration:
@@ -105,7 +151,6 @@ class _Iteration:
                 for ref, index in list(self.pending.items()):
                     del self.pending[ref]
                     ray.kill(self.workers[index], no_restart=False)
-                    self.runner.probe_pid(index)
                     self.lost(index, f"no answer within {timeout:g} s, killed")
                 continue
             for ref in ready:
@@ -125,7 +170,6 @@ class _Iteration:
                 raise SfvError(f"rollout worker {index}: {cause}") from None
             self.lost(index, f"{type(cause or exc).__name__}: {str(cause or exc).splitlines()[0][:200]}")
         except RayError as exc:  # the process died (Ray restarts it) or its result was lost
-            self.runner.probe_pid(index)
             self.lost(index, type(exc).__name__)
         else:
             self.results.append(result)

@@ -156,3 +156,17 @@ def test_all_skills_means_every_deepmimic_clip():
     args.out, args.device, args.torch_threads, args.physics_hz = None, None, None, None
     config = config_from_args(args)
     assert config.skills == tuple(DEEPMIMIC_CLIPS) and len(config.skills) == 15
+
+
+def test_two_invocations_sharing_an_out_dir_keep_each_others_runs(tmp_path):
+    """Two streams of clips on two cores write one learning.json: a record keeps the other's runs."""
+    from services.bench.learning_suite import Cell, LearningConfig, _save
+
+    config = LearningConfig(out_dir=tmp_path)
+    first, second = Cell("deepmimic:jump", "jump", "asi", 0), Cell("deepmimic:spin", "spin", "asi", 0)
+    doc_a, doc_b = {"format": "sfv-learning-1", "runs": {}}, {"format": "sfv-learning-1", "runs": {}}  # both read an empty file
+    _save(doc_a, first, {"name": first.name, "status": "incomplete"}, config)
+    _save(doc_b, second, {"name": second.name, "status": "complete"}, config)
+    _save(doc_a, first, {"name": first.name, "status": "complete"}, config)
+    runs = json.loads((tmp_path / "learning.json").read_text())["runs"]
+    assert {name: run["status"] for name, run in runs.items()} == {"jump_asi_s0": "complete", "spin_asi_s0": "complete"}
