@@ -36,8 +36,9 @@ def observation_dim(reference_steps: int = 0, character=HUMANOID3D) -> int:
 
 def observation_layout(character=HUMANOID3D, reference_steps: int = 0, pose_steps: int = 0, scene_dim: int = 0) -> list[dict]:
     """The observation's blocks in order, each {name, start, size, what}: what `observations`
-    writes (links in `character.link_names` order, everything in the root's heading frame), then
-    the reference's poses ahead (`actors/envs/reference_obs.py`) and a scene's vector."""
+    writes (links in MuJoCo's body order 1..n, which for the humanoid3d is not
+    `character.link_names`'s; everything in the root's heading frame), then the reference's
+    poses ahead (`actors/envs/reference_obs.py`) and a scene's vector."""
     n = character.num_links
     blocks = [("root_height", 1, "root height above the ground (m)"),
               ("link_positions", 3 * n, "each link's position relative to the root (m), x y z per link"),

@@ -54,6 +54,7 @@ from pathlib import Path
 
 from learner.errors import SfvError
 from services.training.config import INIT_MODES
+from services.training.flags import whole_number
 
 FORMAT = "sfv-learning-1"
 RESULTS_FILE = "learning.json"
@@ -133,15 +134,10 @@ def add_arguments(parser) -> None:
 def _count(flag: str, text, minimum: int = 1) -> int:
     """'600', '500k', '2M', '1e6' -> int >= minimum; SfvError naming the flag otherwise."""
     raw = str(text).strip()
-    scale = {"k": 1_000, "m": 1_000_000, "g": 1_000_000_000}.get(raw[-1:].lower(), 1)
-    body = raw[:-1] if scale > 1 else raw
     try:
-        value = float(body.replace("_", "").replace(",", ""))
+        value = whole_number(raw)
     except ValueError:
-        value = math.nan
-    if not math.isfinite(value) or value * scale != round(value * scale):
-        raise SfvError(f"--{flag}: expected a whole number (600, 500k, 2M), got {raw!r}")
-    value = int(round(value * scale))
+        raise SfvError(f"--{flag}: expected a whole number (600, 500k, 2M), got {raw!r}") from None
     if value < minimum:
         raise SfvError(f"--{flag} must be {'positive' if minimum == 1 else f'>= {minimum}'}, got {raw!r}")
     return value

@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import os
 import types
 import typing
@@ -53,7 +54,7 @@ def _positive(kind):
     """argparse type: a number of `kind` greater than zero."""
     def parse(text: str):
         try:
-            value = kind(text)
+            value = whole_number(text) if kind is int else kind(text)
         except ValueError:
             value = None
         if value is None or not value > 0:
@@ -188,6 +189,16 @@ def _optional(kind) -> tuple[Any, bool]:
     return kind, False
 
 
+def whole_number(text: str) -> int:
+    """'600', '500k', '2M', '1e6', '1_000' -> an int; ValueError for anything else (2.5k is 2500, 1.5 is not)."""
+    raw = str(text).strip()
+    scale = {"k": 1_000, "m": 1_000_000, "g": 1_000_000_000}.get(raw[-1:].lower(), 1)
+    value = float((raw[:-1] if scale > 1 else raw).replace("_", "").replace(",", "")) * scale
+    if not math.isfinite(value) or value != round(value):
+        raise ValueError(f"not a whole number: {raw!r}")
+    return int(round(value))
+
+
 def _parser_for(leaf: Leaf) -> Callable[[str], Any]:
     base, nullable = _optional(leaf.type)
     if typing.get_origin(base) is tuple:
@@ -207,9 +218,11 @@ def _parser_for(leaf: Leaf) -> Callable[[str], Any]:
         if nullable and text.strip().lower() == "none":
             return None
         try:
-            return base(text)
+            return whole_number(text) if base is int else base(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected {'a' if base is not int else 'an'} {base.__name__}, got {text!r}") from None
+            if base is int:
+                raise argparse.ArgumentTypeError(f"expected a whole number (600, 500k, 2M), got {text!r}") from None
+            raise argparse.ArgumentTypeError(f"expected a {base.__name__}, got {text!r}") from None
 
     parse.__name__ = getattr(base, "__name__", "value")
     return parse

@@ -31,7 +31,13 @@ def test_defaults_are_one_pass_and_every_core(tmp_path):
     assert _set_torch_threads(config) == cores
 
 
-@pytest.mark.parametrize("flag, value", [("--epochs", "0"), ("--torch-threads", "-1"), ("--policy-lr", "-1e-5"), ("--epochs", "two")])
+def test_sample_counts_take_the_benchmarks_suffixes(tmp_path):
+    config = train.build_config(parse("--out", str(tmp_path / "run"), "--samples", "3M", "--eval-every", "250k", "--curriculum-samples", "1e6"))
+    assert (config.samples, config.eval_every, config.curriculum_samples) == (3_000_000, 250_000, 1_000_000)
+
+
+@pytest.mark.parametrize("flag, value", [("--epochs", "0"), ("--torch-threads", "-1"), ("--policy-lr", "-1e-5"), ("--epochs", "two"),
+                                         ("--samples", "1.5"), ("--samples", "3X")])
 def test_bad_flag_values_exit_2_naming_the_flag(tmp_path, capsys, flag, value):
     with pytest.raises(SystemExit) as exit_info:
         parse("--out", str(tmp_path / "run"), f"{flag}={value}")
