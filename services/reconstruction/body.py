@@ -13,7 +13,18 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from actors.character.skeleton import HINGE_AXIS, JOINT_LINKS, LINK_NAMES, LINKS, REVOLUTE_JOINTS, SPHERICAL_JOINTS, joint_limits_zup
+from actors.character.skeleton import (
+    HINGE_AXIS,
+    JOINT_LINKS,
+    LINK_NAMES,
+    LINKS,
+    NUM_LINKS,
+    REVOLUTE_JOINTS,
+    SPHERICAL_JOINTS,
+    TOTAL_MASS,
+    joint_limits_zup,
+    yup_to_zup,
+)
 from services.reconstruction import quaternion_torch as qt
 from services.reconstruction.batched_kinematics import link_frames
 from services.reconstruction.keypoints import FIT_LINKS, FIT_OFFSETS, FOOT_CENTRE, FOOT_HALF, NUM_FIT
@@ -23,6 +34,12 @@ REVOLUTE_LIMITS = np.concatenate([joint_limits_zup(LINKS[JOINT_LINKS[j]]) for j 
 # cat(spherical, revolute) position of each joint in skeleton order.
 _JOINT_ORDER = torch.as_tensor(np.argsort(np.concatenate((SPHERICAL_JOINTS, REVOLUTE_JOINTS))))
 FOOT_LINKS = np.array([LINK_NAMES.index("right_ankle"), LINK_NAMES.index("left_ankle")])
+# Each link's centre of mass in its frame and its share of the body's mass: the humanoid MJCF
+# (`actors/character/humanoid.py`) gives every body one geom of the link's mass centred there,
+# so MuJoCo's body centre of mass is that geom's centre (a test checks the whole-body CoM
+# against MuJoCo's subtree_com).
+LINK_COM_OFFSETS = np.stack([yup_to_zup(link.geom_offset_yup) for link in LINKS])  # (15, 3), Z-up
+LINK_MASS_FRACTIONS = np.array([link.mass for link in LINKS]) / TOTAL_MASS  # (15,), sums to 1
 # The 8 corners of the foot box in the ankle frame: the lowest of them is the foot's lowest point.
 FOOT_CORNERS = FOOT_CENTRE + FOOT_HALF * np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
 
@@ -92,12 +109,33 @@ _POINT_LINKS = torch.as_tensor(np.concatenate((FIT_LINKS, np.repeat(FOOT_LINKS, 
 _POINT_OFFSETS = np.concatenate((FIT_OFFSETS, np.tile(FOOT_CORNERS, (len(FOOT_LINKS), 1))))
 
 
-def body_points(root_pos, root_quat, joint_quats):
-    """Fit points (T, P, 3) and foot-box corners (T, 2, 8, 3) of a pose trajectory."""
+_ALL_LINKS = torch.arange(NUM_LINKS)
+
+
+def centre_of_mass(link_pos, link_mats) -> torch.Tensor:
+    """Whole-body centre of mass (..., 3): the mass-weighted mean of the link centres of mass,
+    from link positions (..., 15, 3) and rotation matrices (..., 15, 3, 3)."""
+    centres = points_on_links(link_pos, link_mats, _ALL_LINKS, LINK_COM_OFFSETS)
+    return (torch.as_tensor(LINK_MASS_FRACTIONS, dtype=link_pos.dtype).unsqueeze(-1) * centres).sum(-2)
+
+
+def body_points(root_pos, root_quat, joint_quats, with_com: bool = False):
+    """Fit points (T, P, 3) and foot-box corners (T, 2, 8, 3) of a pose trajectory, and with
+    `with_com` its centre of mass (T, 3) as a third value."""
     link_pos, link_mats = link_frames(root_pos, root_quat, joint_quats)
     points = points_on_links(link_pos, link_mats, _POINT_LINKS, _POINT_OFFSETS)
     fit, corners = points[..., :NUM_FIT, :], points[..., NUM_FIT:, :]
-    return fit, corners.reshape(corners.shape[:-2] + (len(FOOT_LINKS), len(FOOT_CORNERS), 3))
+    corners = corners.reshape(corners.shape[:-2] + (len(FOOT_LINKS), len(FOOT_CORNERS), 3))
+    if with_com:
+        return fit, corners, centre_of_mass(link_pos, link_mats)
+    return fit, corners
+
+
+def motion_centre_of_mass(root_pos: np.ndarray, root_rot: np.ndarray, joint_rot: np.ndarray) -> np.ndarray:
+    """Whole-body centre of mass (T, 3) of a motion's poses (numpy in and out)."""
+    with torch.no_grad():
+        link_pos, link_mats = link_frames(torch.as_tensor(root_pos), torch.as_tensor(root_rot), torch.as_tensor(joint_rot))
+        return centre_of_mass(link_pos, link_mats).double().numpy()
 
 
 def motion_foot_corners(root_pos: np.ndarray, root_rot: np.ndarray, joint_rot: np.ndarray) -> np.ndarray:

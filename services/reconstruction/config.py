@@ -27,6 +27,15 @@ class ReconstructionConfig:
         "help": "weight of the horizontal step (length units, Charbonnier) of a contact foot between adjacent frames "
                 "in which it is down at both (cam01: 100 halves the robust term's 2D cost of a squared one, 11.3 vs "
                 "12.2 px, at the same skating, 0.49 m/s)"})
+    w_balance: float = field(default=50.0, metadata={
+        "help": "weight of the static-balance term: the horizontal distance (length units, Charbonnier) of the "
+                "whole-body centre of mass beyond balance_margin_m from the support of the contact feet, in frames "
+                "where at least one is down; needs the contact terms (w_contact > 0); 0: off, today's fit exactly. "
+                "Pose2Sim, 4 cameras: 50 brings the centre of mass from 13-17 to 8-11 cm of the support (mean over "
+                "contact frames) for +0.7 to +1.5 px of reprojection error and -1.1 to +0.9 mm PA-MPJPE; 100 gets "
+                "5-8 cm for +1.4 to +3.2 px (bench/results/reconstruction_balance.json)"})
+    balance_margin_m: float = field(default=0.05, metadata={
+        "help": "distance (m) from the support within which the centre of mass costs nothing in the balance term"})
     # --- optimiser
     iterations: int = field(default=400, metadata={"help": "Adam steps of the reconstruction"})
     lr_rotation: float = field(default=0.01, metadata={"help": "Adam step size of the rotation parameters (radians)"})

@@ -8,6 +8,12 @@ lowest point of the contact feet, and the contact terms (`losses.contact_height`
 `losses.contact_sliding`) pull those feet onto it and hold them there. Afterwards a frame
 whose foot still dips below the ground (the penetration term is soft) has its root lifted by
 the depth, so no frame penetrates.
+
+Feet on the floor do not make a reference that stands: the static-balance term
+(`losses.static_balance`, weight `w_balance`) also holds the whole-body centre of mass (the
+humanoid's link masses through the same forward kinematics, `body.centre_of_mass`) within
+`balance_margin_m` of the contact feet's support in every frame with a foot down. It needs
+these contacts (a fitted ground), so it is off wherever they are.
 """
 from __future__ import annotations
 

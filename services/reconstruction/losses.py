@@ -13,6 +13,20 @@ are the same idea), two contact terms and the no-penetration term:
     lslide   = sum_t sum_f c_tf c_t+1,f rho(|p_t+1,f - p_tf|_xy)   p the foot's centre, rho Charbonnier
     lground  = sum_t sum_corners relu(g - z)^2
 
+and, in the frames where at least one foot is down, a static-balance term (PhysCap's and
+SimPoE's physical plausibility, reduced to its static part): the horizontal distance d_t of
+the whole-body centre of mass from the support, beyond a margin m, pays a Charbonnier rho:
+
+    lbalance = sum_t [any c_t] rho(relu(d_t - m))
+
+the support being a contact foot's heel-toe segment, or with both feet down the convex hull of
+their heels and toes (horizontal: the ground is z = const). SFV's loss and the contact terms
+leave the centre of mass 13-17 cm (mean over contact frames) from the support on the Pose2Sim
+cameras, where the markers' is 3 cm; w_balance 50 brings it to 8-11 cm (+0.7-1.5 px, PA-MPJPE
+-1.1 to +0.9 mm), but pure PD tracking from the first frame gains little (29-32 -> 26-33 of 49
+control steps): the estimator leaves most of the one-leg stance without a foot down (cam01
+frames 30-44), where the term does not act (bench/results/reconstruction_balance.json).
+
 2D residuals are in image units (per mille of the image height by default,
 `ReconstructionConfig.image_unit`), joint positions in a length unit (centimetres,
 `ReconstructionConfig.length_unit_m`), rotations in radians. The functions return one value per frame
@@ -79,3 +93,55 @@ def contact_sliding(foot_corners: torch.Tensor, contacts: torch.Tensor, unit_m: 
     step = centre[1:] - centre[:-1]
     held = contacts[1:] * contacts[:-1]
     return (held * ((step * step).sum(-1) + smooth * smooth).sqrt() - held * smooth).sum(-1)
+
+
+def point_segment_distance(point: torch.Tensor, start: torch.Tensor, end: torch.Tensor) -> torch.Tensor:
+    """(...,) distance from points (..., D) to the segments start-end (..., D); a segment of
+    zero length is its point."""
+    along = end - start
+    length2 = (along * along).sum(-1)
+    t = ((point - start) * along).sum(-1) / length2.clamp_min(1e-12)
+    nearest = start + t.clamp(0.0, 1.0).unsqueeze(-1) * along
+    return ((point - nearest) ** 2).sum(-1).clamp_min(1e-18).sqrt()
+
+
+def _inside_triangle(point: torch.Tensor, a: torch.Tensor, b: torch.Tensor, c: torch.Tensor) -> torch.Tensor:
+    """(...,) bool: 2D points (..., 2) inside (or on) the triangles a, b, c (..., 2), either winding."""
+    def cross(o, p, q):
+        return (p[..., 0] - o[..., 0]) * (q[..., 1] - o[..., 1]) - (p[..., 1] - o[..., 1]) * (q[..., 0] - o[..., 0])
+
+    d1, d2, d3 = cross(a, b, point), cross(b, c, point), cross(c, a, point)
+    return ((d1 >= 0) & (d2 >= 0) & (d3 >= 0)) | ((d1 <= 0) & (d2 <= 0) & (d3 <= 0))
+
+
+def support_distance(com_xy: torch.Tensor, heels_xy: torch.Tensor, toes_xy: torch.Tensor, contacts: torch.Tensor) -> torch.Tensor:
+    """(T,) horizontal distance of the centre of mass (T, 2) from the support of the feet down
+    (contacts (T, F=2) 0/1, heels and toes (T, 2, 2), feet in the same order): one foot down,
+    its heel-toe segment; both, the convex hull of the two heels and toes (0 inside it, else
+    the nearest of the six segments between those points, the hull's edges among them). 0
+    where no foot is down (the caller masks those frames anyway)."""
+    feet = point_segment_distance(com_xy.unsqueeze(-2), heels_xy, toes_xy)  # (T, 2)
+    down = contacts > 0.5
+    big = torch.full_like(feet, torch.finfo(feet.dtype).max)
+    one_foot = torch.where(down, feet, big).min(dim=-1).values
+    corners = (heels_xy[:, 0], toes_xy[:, 0], heels_xy[:, 1], toes_xy[:, 1])
+    pairs = [(i, j) for i in range(4) for j in range(i + 1, 4)]
+    edges = torch.stack([point_segment_distance(com_xy, corners[i], corners[j]) for i, j in pairs], dim=-1)
+    triples = [(0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)]
+    inside = torch.stack([_inside_triangle(com_xy, *(corners[k] for k in t)) for t in triples], dim=-1).any(dim=-1)
+    two_feet = torch.where(inside, torch.zeros_like(one_foot), edges.min(dim=-1).values)
+    distance = torch.where(down.all(dim=-1), two_feet, one_foot)
+    return torch.where(down.any(dim=-1), distance, torch.zeros_like(distance))
+
+
+def static_balance(com: torch.Tensor, heels: torch.Tensor, toes: torch.Tensor, contacts: torch.Tensor, unit_m: float,
+                   margin_m: float, smooth: float = 1.0) -> torch.Tensor:
+    """(T,) rho(relu(d - margin)) in length units, d the centre of mass's (T, 3) horizontal
+    distance from the support (`support_distance`; heels, toes (T, 2, 3) the feet's sole
+    points), rho(e) = sqrt(e^2 + smooth^2) - smooth (near 0 quadratic, linear far out, so a
+    foot the estimator wrongly calls down pulls the body with a bounded force); 0 in frames
+    with no foot down."""
+    distance = support_distance(com[..., :2], heels[..., :2], toes[..., :2], contacts)
+    excess = torch.relu(distance - margin_m) / unit_m
+    down = (contacts > 0.5).any(dim=-1).to(com.dtype)
+    return down * ((excess * excess + smooth * smooth).sqrt() - smooth)

@@ -9,6 +9,7 @@
 3. All frames are optimised together with Adam on
        l_rec = 10 l2D + 100 l3D + 25 lsm  (+ 100 x ground penetration)
              (+ 100 lcontact + 100 lslide where the foot-contact estimator says a foot is down)
+             (+ w_balance lbalance: the centre of mass over the contact feet, `losses.static_balance`)
    over the per-frame root positions, root rotations and joint exponential coordinates (and,
    with contacts, the ground height: `contact_fit.py`), joints clamped to their limits after
    every step (`losses.py`). Units, which decide how
@@ -51,6 +52,7 @@ from services.reconstruction.keypoints import (
     JOINT_KEYPOINTS,
     NUM_JOINT_KEYPOINTS,
     ObservedPoints,
+    fit_index,
     observe,
 )
 from services.reconstruction.label_flips import find_label_flips, undo_label_flips
@@ -62,10 +64,14 @@ from services.reconstruction.losses import (
     reprojection_error,
     reprojection_l1,
     smoothness,
+    static_balance,
 )
 
 CONTACT_FEET = ("right", "left")  # the order of the feet in contact arrays, as `body.FOOT_LINKS`
-LOSS_NAMES = ("l2d", "l3d", "lsm", "ground", "contact", "slide")
+LOSS_NAMES = ("l2d", "l3d", "lsm", "ground", "contact", "slide", "balance")
+# The sole points of the feet (CONTACT_FEET order) that span the balance term's support.
+HEEL_POINTS = [fit_index("RHeel"), fit_index("LHeel")]
+TOE_POINTS = [fit_index("RToe"), fit_index("LToe")]
 # (track, label_flipped (T,)) -> (probabilities (T, 2), flags (T, 2) bool), feet in CONTACT_FEET
 # order: `services.contacts.estimator.track_contacts` (above this package, so it is passed in).
 ContactEstimate = Callable[[object, np.ndarray], tuple[np.ndarray, np.ndarray]]
@@ -96,9 +102,9 @@ def check_track(track, source: str) -> None:
             raise SfvError(f"{source}: pose track {name} holds NaN or infinite values")
 
 
-def _poses(params: PoseParams, root_pos=None):
+def _poses(params: PoseParams, root_pos=None, with_com: bool = False):
     root_pos = params.root_pos if root_pos is None else root_pos
-    return body_points(root_pos, params.root_quat(), params.joint_quats())
+    return body_points(root_pos, params.root_quat(), params.joint_quats(), with_com)
 
 
 def initialise(obs: ObservedPoints, image_size: tuple[int, int], config: ReconstructionConfig,
@@ -139,8 +145,10 @@ def initialise(obs: ObservedPoints, image_size: tuple[int, int], config: Reconst
 def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed: torch.Tensor, weights: torch.Tensor,
                predicted_rotations: torch.Tensor, frame_weights: torch.Tensor, config: ReconstructionConfig) -> dict:
     """The terms of LOSS_NAMES, each averaged over frames (lsm, slide: summed over frame pairs / T);
-    the contact terms are 0 without contacts."""
-    fit, corners = _poses(params)
+    the contact terms are 0 without contacts, the balance term also with w_balance = 0 (then
+    not computed: the other terms are exactly those without it)."""
+    balance = setup.contacts is not None and config.w_balance > 0
+    fit, corners, *com = _poses(params, with_com=balance)
     frames = fit.shape[0]
     rotations = torch.cat((params.root_quat().unsqueeze(-2), params.joint_quats()), dim=-2)
     unit = config.length_unit_m
@@ -151,17 +159,22 @@ def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed:
         "ground": ground_penetration(corners, unit, ground).mean(),
         "contact": torch.zeros((), dtype=fit.dtype),
         "slide": torch.zeros((), dtype=fit.dtype),
+        "balance": torch.zeros((), dtype=fit.dtype),
     }
     if setup.contacts is not None:
         contacts = torch.as_tensor(setup.contacts, dtype=fit.dtype)
         terms["contact"] = contact_height(corners, contacts, unit, ground).mean()
         terms["slide"] = contact_sliding(corners, contacts, unit).sum() / frames
+        if balance:
+            terms["balance"] = static_balance(com[0], fit[:, HEEL_POINTS], fit[:, TOE_POINTS], contacts, unit,
+                                              config.balance_margin_m).mean()
     return terms
 
 
 def total_loss(terms: dict, config: ReconstructionConfig) -> torch.Tensor:
     return (config.w_2d * terms["l2d"] + config.w_3d * terms["l3d"] + config.w_smooth * terms["lsm"]
-            + config.w_ground * terms["ground"] + config.w_contact * terms["contact"] + config.w_slide * terms["slide"])
+            + config.w_ground * terms["ground"] + config.w_contact * terms["contact"] + config.w_slide * terms["slide"]
+            + config.w_balance * terms["balance"])
 
 
 def optimise(setup: Setup, obs: ObservedPoints, config: ReconstructionConfig,
