@@ -15,6 +15,7 @@ import pytest
 
 REDIS_BINARY = "redis-server"
 START_TIMEOUT_S = 10.0
+SHUTDOWN_TIMEOUT_S = 30.0
 
 
 def free_port() -> int:
@@ -37,14 +38,14 @@ class RedisProcess:
         auth = f":{self.password}@" if self.password else ""
         return f"redis://{auth}127.0.0.1:{self.port}/0"
 
-    def _client(self):
+    def _client(self, socket_timeout: float = 0.5):
         import redis
         from redis.backoff import NoBackoff
         from redis.retry import Retry
 
         # No client retries: polling and SHUTDOWN handle a closed connection themselves.
         return redis.Redis(host="127.0.0.1", port=self.port, password=self.password,
-                           socket_connect_timeout=0.5, socket_timeout=0.5, retry=Retry(NoBackoff(), 0))
+                           socket_connect_timeout=0.5, socket_timeout=socket_timeout, retry=Retry(NoBackoff(), 0))
 
     def start(self) -> "RedisProcess":
         # --save '' disables periodic snapshots; restart() forces one with SHUTDOWN SAVE.
@@ -84,7 +85,9 @@ class RedisProcess:
         if save:
             import redis
 
-            client = self._client()
+            # SHUTDOWN SAVE writes and fsyncs dump.rdb before it answers: 0.5 s was too short on a
+            # loaded CI disk (stop 33 failed there with a read timeout), so this call waits up to 30 s.
+            client = self._client(socket_timeout=SHUTDOWN_TIMEOUT_S)
             try:
                 client.shutdown(save=True)
             except redis.ConnectionError:
