@@ -3,7 +3,8 @@
 movingcam renders motion-capture clips through virtual cameras and labels the contacts from
 the capture. Here every DeepMimic clip in `pybullet_data` (and its mirror image) is played
 kinematically on the humanoid at `NETWORK_FPS`: looping clips three cycles, the others once,
-each at its own pace and at half speed.
+each at its own pace and at half speed,
+and six of its poses with a foot down held for two seconds (`held_poses`).
 The 17 fit points (`services.reconstruction.keypoints`) are projected through random
 cameras into a 640x480 picture, in the paper's camera settings and one more:
 - static: fixed, looking at the clip's mean root position;
@@ -38,6 +39,15 @@ CAMERA_KINDS = ("static", "panning", "tracking", "zooming")
 # The clips are all lively; people in videos also move slowly or stand (balancing, the
 # Pose2Sim clip), so every clip is also played at half speed.
 PLAY_SPEEDS = (1.0, 0.5)
+# Nor do the clips hold still: the Pose2Sim subject stands on one leg with the other lifted and
+# nearly still for a second, and the network trained on lively clips alone called that lifted,
+# still foot down (cam01 frames 48-75) and the standing one up (30-44): 0.77 mean accuracy over
+# the four cameras against the markers, 0.81 with held poses (`settings.py`). So every clip also
+# gives poses held for HOLD_S seconds, the clip creeping on at HOLD_SPEED x its pace: a still foot
+# is down only when it is low.
+HOLD_S = 2.0
+HOLD_SPEED = 0.05
+HOLDS_PER_CLIP = 6
 FOOT_POINTS = [i for i, n in enumerate(FIT_NAMES) if n[1:] in ("Knee", "Ankle", "Toe", "Heel")]
 
 
@@ -51,13 +61,10 @@ class ClipBodies:
     contacts: np.ndarray
 
 
-def play_clip(name: str, speed: float = 1.0) -> list[ClipBodies]:
-    """The clip and its mirror image, played at `speed` x its own pace, sampled at NETWORK_FPS."""
-    motion = load_motion(f"deepmimic:{name}")
-    duration = motion.duration * (3 if motion.loop else 1)
-    pose = motion.sample(np.arange(0.0, duration, speed / NETWORK_FPS))
-    if speed != 1.0:
-        name = f"{name}_x{speed:g}"
+def _bodies(name: str, motion, times: np.ndarray) -> list[ClipBodies]:
+    """The motion's pose at `times` (seconds of the clip) and its mirror image, labelled, one
+    picture every 1 / NETWORK_FPS seconds of the played sequence."""
+    pose = motion.sample(times)
     with torch.no_grad():
         fit, corners = body_points(torch.as_tensor(pose.root_pos), torch.as_tensor(pose.root_rot),
                                    torch.as_tensor(pose.joint_rot))
@@ -68,6 +75,29 @@ def play_clip(name: str, speed: float = 1.0) -> list[ClipBodies]:
     mirror = np.array([1.0, -1.0, 1.0])
     return [ClipBodies(name, fit, pose.root_pos, contacts),
             ClipBodies(f"{name}_mirror", (fit * mirror)[:, LEFT_RIGHT_SWAP], pose.root_pos * mirror, contacts[:, ::-1])]
+
+
+def play_clip(name: str, speed: float = 1.0) -> list[ClipBodies]:
+    """The clip and its mirror image, played at `speed` x its own pace, sampled at NETWORK_FPS."""
+    motion = load_motion(f"deepmimic:{name}")
+    duration = motion.duration * (3 if motion.loop else 1)
+    return _bodies(name if speed == 1.0 else f"{name}_x{speed:g}", motion, np.arange(0.0, duration, speed / NETWORK_FPS))
+
+
+def held_poses(name: str, rng: np.random.Generator, count: int = HOLDS_PER_CLIP) -> list[ClipBodies]:
+    """`count` of the clip's poses with a foot on the ground, each held for HOLD_S seconds while
+    the clip creeps on at HOLD_SPEED x its pace (and their mirror images)."""
+    motion = load_motion(f"deepmimic:{name}")
+    frames = np.arange(0.0, motion.duration, 1.0 / NETWORK_FPS)
+    grounded = np.flatnonzero(_bodies(name, motion, frames)[0].contacts.any(axis=1))
+    if len(grounded) == 0:
+        return []
+    steps = np.arange(0.0, HOLD_S, 1.0 / NETWORK_FPS) * HOLD_SPEED
+    holds = []
+    for k, start in enumerate(rng.choice(frames[grounded], size=min(count, len(grounded)), replace=False)):
+        times = np.clip(start + steps - steps[-1] / 2, 0.0, motion.duration)
+        holds += _bodies(f"{name}_hold{k}", motion, times)
+    return holds
 
 
 def _look_at(position: np.ndarray, target: np.ndarray, roll: float) -> np.ndarray:
@@ -139,14 +169,16 @@ class ContactDataset:
 
 
 def make_dataset(clips: tuple[str, ...] = DEEPMIMIC_CLIPS, cameras_per_clip: int = 24, seed: int = 0,
-                 speeds: tuple[float, ...] = PLAY_SPEEDS) -> ContactDataset:
+                 speeds: tuple[float, ...] = PLAY_SPEEDS, hold_cameras: int = 4) -> ContactDataset:
     """Windows of every clip (and mirror, at each of `speeds`) through `cameras_per_clip` random
-    cameras each, the camera kinds taking turns."""
+    cameras each, the camera kinds taking turns, and of its held poses through `hold_cameras`."""
     rng = np.random.default_rng(seed)
     features, labels, owner = [], [], []
     for index, name in enumerate(clips):
-        for body in (b for speed in speeds for b in play_clip(name, speed)):
-            for k in range(cameras_per_clip):
+        bodies = [(b, cameras_per_clip) for speed in speeds for b in play_clip(name, speed)]
+        bodies += [(b, hold_cameras) for b in held_poses(name, rng)] if hold_cameras else []
+        for body, cameras in bodies:
+            for k in range(cameras):
                 pixels, in_front = random_camera_view(body, rng, CAMERA_KINDS[k % len(CAMERA_KINDS)])
                 noisy, confidence = blazepose_like(pixels, rng)
                 confidence[~in_front] = 0.0

@@ -10,8 +10,10 @@ from services.contacts.estimator import SHIPPED, FootContactEstimator, track_con
 from services.contacts.features import FEATURES, WINDOW, frame_stride, window_features
 from services.contacts.network import HIDDEN, contact_network
 from services.contacts.settings import DIGEST_FILE, MODEL_FILE, REPORT_FILE, TrainSettings
-from services.contacts.synthetic_data import blazepose_like, make_dataset, play_clip, random_camera_view
+from services.contacts.synthetic_data import (CONTACT_HEIGHT, FOOT_POINTS, HOLD_S, blazepose_like, held_poses, make_dataset,
+                                              play_clip, random_camera_view)
 from services.contacts.training import save_shipped, train_contact_network
+from services.reconstruction.keypoints import FIT_NAMES
 
 pytest.importorskip("pybullet_data", reason="the training clips come with pybullet_data")
 
@@ -38,6 +40,22 @@ def test_walking_labels_alternate_and_the_mirror_swaps_feet():
     assert 0.01 < (confidence == 0).mean() < 0.1 and np.abs(noisy - pixels).mean() > 0.1
 
 
+def test_held_poses_keep_a_foot_down_and_call_a_still_foot_down_only_when_it_is_low():
+    holds = held_poses("walk", np.random.default_rng(3), count=4)
+    assert len(holds) == 8 and all(len(h.points) == round(HOLD_S * 30) for h in holds)  # four and their mirrors
+    for hold in holds:
+        middle = len(hold.points) // 2
+        assert hold.contacts[middle].any()  # chosen among the poses with a foot on the ground
+        speed = np.linalg.norm(np.diff(hold.points[:, FOOT_POINTS, :2], axis=0), axis=-1).max() * 30
+        assert speed < 0.6  # nearly still: what is down is decided by height alone
+    lifted = [h for h in holds if not h.contacts[len(h.points) // 2].all()]
+    assert lifted  # single support: some held poses have a foot in the air, labelled up though still
+    for hold in lifted:
+        up = int(np.flatnonzero(~hold.contacts[len(hold.points) // 2])[0])  # 0 right, 1 left
+        ankle = FIT_NAMES.index("RAnkle" if up == 0 else "LAnkle")
+        assert hold.points[len(hold.points) // 2, ankle, 2] > CONTACT_HEIGHT
+
+
 def test_the_network_has_the_papers_layers():
     widths = [m.out_features for m in contact_network() if hasattr(m, "out_features")]
     norms = [m.num_features for m in contact_network() if m.__class__.__name__ == "BatchNorm1d"]
@@ -49,7 +67,7 @@ def test_the_shipped_model_is_checked_and_finds_contacts_on_held_out_clips(tmp_p
     data = make_dataset(("jump", "run"), cameras_per_clip=4, seed=123)  # clips the shipped model never saw
     probabilities = estimator._session.run(None, {estimator._input: data.features})[0]
     accuracy = ((probabilities > 0) == (data.labels > 0.5)).mean()
-    assert accuracy > 0.75  # held-out accuracy of the shipped model: run 0.82, jump 0.84 (foot_contact.json)
+    assert accuracy > 0.8  # held-out accuracy of the shipped model: run 0.88, jump 0.90 (foot_contact.json)
     tampered = tmp_path / "weights"
     shutil.copytree(SHIPPED, tampered)
     with open(tampered / MODEL_FILE, "ab") as handle:
@@ -90,5 +108,6 @@ def test_contacts_on_the_real_video_agree_with_the_markers(models_dir):
     assert probabilities.shape == flags.shape == (100, 2)
     truth = marker_contacts()
     accuracy = (flags == truth).mean(axis=0)
-    # measured with the shipped model: 0.70 (cam02..04: 0.55, 0.80, 0.87); always "down" scores 0.59
-    assert accuracy.mean() > 0.65, f"right {accuracy[0]:.2f}, left {accuracy[1]:.2f}"
+    # measured with the shipped model: 0.815 (cam02..04: 0.47, 0.895, 0.905); the model trained
+    # without held poses scored 0.70 (0.55, 0.80, 0.87); always "down" scores 0.59
+    assert accuracy.mean() > 0.75, f"right {accuracy[0]:.2f}, left {accuracy[1]:.2f}"
