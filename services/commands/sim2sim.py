@@ -5,7 +5,7 @@
         limit, armature from the file's metadata), physics at another rate than the training's,
         the observation computed from the metadata's layout, the action map applied; from the
         reference's first frame: seconds survived, mean joint-target error, torque saturation
-        (services/export/sim2sim.py; it uses onnxruntime, mujoco and numpy only)
+        (services/export/sim2sim/; it uses onnxruntime, mujoco and numpy only)
 
 `--robot-xml` defaults to the G1's cached g1.xml (`sfv models fetch --robot g1`) for a G1 policy
 and to the project's generated MJCF for a humanoid3d one. Prints one JSON object (the report).

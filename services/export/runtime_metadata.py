@@ -35,7 +35,7 @@ RUNTIME_FORMAT = "sfv-runtime-1"
 _HEADING = ("the heading frame: the world turned about z by the root body's yaw th = atan2(R[1,0], R[0,0]) "
             "(R: its world rotation matrix, MuJoCo xmat); a world vector v enters it as Rz(th)^T v")
 _ROTATION = "conj(q_h) * q (Hamilton product) with q_h = (cos th/2, 0, 0, sin th/2); w x y z, the sign chosen so that w >= 0"
-# Exact definitions of the blocks (`actors/character/features.py` writes them, `services/export/sim2sim.py` reproduces them).
+# Exact definitions of the blocks (`actors/character/features.py` writes them, `services/export/sim2sim/` reproduces them).
 _WHAT = {
     "root_height": "world z of the root body's origin (xpos of observation_links[0]), m; the floor is z = 0",
     "link_positions": f"per link of observation_links: its body origin (xpos) minus the root body's origin, in {_HEADING}; m, x y z per link",

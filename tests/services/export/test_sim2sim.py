@@ -1,4 +1,4 @@
-"""`sfv sim2sim`: an exported policy replayed as a robot runtime would (`services/export/sim2sim.py`).
+"""`sfv sim2sim`: an exported policy replayed as a robot runtime would (`services/export/sim2sim/`).
 
 A tiny run of each body (`make_tiny_run`: an untrained but visibly non-zero policy) is exported,
 and the replay, built only from the ONNX file and the raw MJCF (the G1's cached `g1.xml`, the
@@ -9,6 +9,7 @@ model (`sfv models fetch --robot g1`) and skip without it."""
 from __future__ import annotations
 
 import ast
+import importlib.util
 import json
 import subprocess
 import sys
@@ -156,10 +157,20 @@ def test_the_replay_imports_no_training_code(body):
     result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300, cwd=REPO)
     assert result.returncode == 0, result.stderr[-2000:]
     assert json.loads(result.stdout.strip().splitlines()[-1]) == []
-    tree = ast.parse(Path(sim2sim.__file__).read_text())
-    imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
-    imported |= {n.module.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
-    assert imported <= {"__future__", "dataclasses", "json", "math", "os", "pathlib", "tempfile", "mujoco", "numpy", "onnxruntime"}
+    folder = Path(sim2sim.__file__).parent  # the package: every file of it, not only __init__.py
+    sources = sorted(folder.rglob("*.py"))
+    assert {"__init__.py", "policy.py", "model.py", "observer.py", "replay.py"} <= {s.name for s in sources}
+    imported = set()
+    for source in sources:
+        module = ".".join((sim2sim.__name__, *source.relative_to(folder).with_suffix("").parts)).removesuffix(".__init__")
+        package = module if source.name == "__init__.py" else module.rpartition(".")[0]
+        tree = ast.parse(source.read_text())
+        imported |= {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+        imported |= {importlib.util.resolve_name("." * n.level + (n.module or ""), package) if n.level else n.module
+                     for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    own = {m for m in imported if m == sim2sim.__name__ or m.startswith(sim2sim.__name__ + ".")}  # the package's own files
+    assert {m.split(".")[0] for m in imported - own} <= {"__future__", "dataclasses", "json", "math", "os", "pathlib", "tempfile",
+                                                        "mujoco", "numpy", "onnxruntime"}
 
 
 # ------------------------------------------------------------------------------ bad input
