@@ -52,3 +52,25 @@ class BufferedStarts:
         i, b = self._next, self._buffer
         self._next += 1
         return float(b.phases[i]), int(b.components[i]), None if b.states is None else b.states[i]
+
+
+class FirstFrameStarts:
+    """`take()` like `BufferedStarts`: with probability `share` the reference's first frame
+    (phase 0, component -1: never reported to ASI), else the wrapped source's start.
+
+    Why, for a clip that does not loop: uniform phases (RSI, ASI's components) leave the clip's
+    first frames the least trained, since frame t is reached only by episodes that started
+    before it. On the 1.67 s Pose2Sim clip the training's samples per frame bin rose ~9x from
+    the first bins to the last (30 -> 270 per iteration), yet the episode a user plays starts
+    at the first frame. A share w makes frame t's visits w + (1 - w) t / T of the last's.
+    """
+
+    def __init__(self, starts, share: float, rng: np.random.Generator):
+        if not 0.0 <= share <= 1.0:
+            raise ValueError(f"first-frame share must lie in [0, 1], got {share}")
+        self.starts, self.share, self.rng = starts, float(share), rng
+
+    def take(self):
+        if self.rng.random() < self.share:
+            return 0.0, -1, None
+        return self.starts.take()

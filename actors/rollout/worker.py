@@ -23,7 +23,7 @@ import numpy as np
 
 from actors.envs.handover_starts import HandoverStarts
 from actors.envs.imitation_env import EnvConfig
-from actors.envs.initial_states import BufferedStarts, InitialStates, ReferenceStarts
+from actors.envs.initial_states import BufferedStarts, FirstFrameStarts, InitialStates, ReferenceStarts
 from actors.motion.reference_motion import ReferenceMotion
 from actors.envs.vector_env import VectorImitationEnv
 from learner.policy import NumpyPolicy
@@ -49,6 +49,7 @@ class WorkerSpec:
     asi_outage_s: float = 30.0  # how long drawing starts keeps retrying an unreachable ASI server
     handover_states: np.ndarray | None = None  # (n, state_dim): a scene-fit window's starts at phase 0 (actors/envs/handover_starts.py)
     handover_share: float = 0.5  # share of episodes started from them
+    first_frame_share: float = 0.0  # share of episodes started at the reference's first frame (FirstFrameStarts)
 
 
 class _ServerStarts:
@@ -90,6 +91,8 @@ class RolloutWorker:
                 raise ValueError("init 'asi' needs an ASI server address")
             source = ReferenceStarts(spec.init, self.rng)
         starts = BufferedStarts(source, spec.start_batch)
+        if spec.first_frame_share > 0:
+            starts = FirstFrameStarts(starts, spec.first_frame_share, np.random.default_rng([self.seed, 3]))
         if spec.handover_states is not None:
             starts = HandoverStarts(starts, spec.handover_states, spec.handover_share, np.random.default_rng([self.seed, 2]))
         self.env = VectorImitationEnv(spec.motion, spec.env, spec.num_envs, starts, seed=self.seed * 1000, gamma=spec.gamma)

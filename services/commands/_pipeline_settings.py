@@ -6,9 +6,17 @@ from __future__ import annotations
 # moving-camera path's boxes (fitted), not a fixed scene.
 PIPELINE_SETS = frozenset({"motion", "env.scene"})
 
+# The static pipeline's own defaults, where `sfv train`'s are a quick first run (200 k samples): a
+# user's video should end in a controller that completes the clip from its first frame.
+# Pose2Sim cam01 at 2 M samples (one worker, 31 min on shared cores): in-training eval .79 with 1 of 8
+# falling from 1 M on; from the first frame it fell at 1.5 s of the 1.67 s clip.
+STATIC_DEFAULTS = {"samples": 2_000_000}
+PIPELINE_DEFAULT_TEXT = {"samples": f"{STATIC_DEFAULTS['samples']} with a static camera, sfv train's per window with --camera moving"}
 
-def train_config(args, motion: str, out: str):
-    """The training's TrainConfig: `sfv train`'s defaults, then --config, then the flags given."""
+
+def train_config(args, motion: str, out: str, defaults: dict | None = None):
+    """The training's TrainConfig: `sfv train`'s defaults, then the pipeline's `defaults`
+    ({config path: value}), then --config, then the flags given."""
     from learner.errors import SfvError
     from services.training.flags import chosen_presets, given_settings, read_config_file, resolve
 
@@ -21,6 +29,9 @@ def train_config(args, motion: str, out: str):
     from_flags, flag_names = given_settings(args)
     given.update(from_flags)
     flags.update(flag_names)
+    for path, value in (defaults or {}).items():
+        if path not in given:
+            given[path], flags[path] = value, f"sfv pipeline's default {path}"
     config = resolve(given, flags, None, chosen_presets(args))
     config.motion, config.out = motion, out
     config.validate()

@@ -25,7 +25,7 @@ HELP = "reconstruct a motion from a video, then train a controller for it"  # th
 
 
 def register(sub) -> None:
-    from services.commands._pipeline_settings import PIPELINE_SETS
+    from services.commands._pipeline_settings import PIPELINE_DEFAULT_TEXT, PIPELINE_SETS
     from services.training.flags import add_config_flags
 
     p = sub.add_parser("pipeline", help=HELP,
@@ -56,7 +56,8 @@ def register(sub) -> None:
                         "overlay_strip.png and report.json")
     p.add_argument("--config", default=None, metavar="FILE.yaml",
                    help="training settings from a YAML file (the layout `sfv train --print-config` writes); flags given win")
-    add_config_flags(p, skip=PIPELINE_SETS, title="training settings (`sfv train`'s; each a config field)")
+    add_config_flags(p, skip=PIPELINE_SETS, title="training settings (`sfv train`'s; each a config field)",
+                     default_text=PIPELINE_DEFAULT_TEXT)
     p.set_defaults(handler=run)
 
 
@@ -115,7 +116,7 @@ def run_static(args) -> int:
     from actors.motion.formats.io import save_motion
     from learner.errors import SfvError
     from services.pose import estimate_video
-    from services.commands._pipeline_settings import train_config
+    from services.commands._pipeline_settings import STATIC_DEFAULTS, train_config
     from services.console import attach_log_file
     from services.pose.video import probe_video
     from services.ray_session import connect_ray
@@ -124,7 +125,7 @@ def run_static(args) -> int:
     from services.training.driver import Trainer
 
     out: Path = args.out
-    train = train_config(args, str(out / "motion.npz"), str(out / "train"))  # a bad setting: one line before any work
+    train = train_config(args, str(out / "motion.npz"), str(out / "train"), STATIC_DEFAULTS)  # a bad setting: one line before any work
     probe_video(args.video)  # missing file / not a video / no frames: one-line error before any work
     if (out / "motion.npz").exists():
         raise SfvError(f"{out}: holds a pipeline run already; choose another --out (or --finish-only to play its "

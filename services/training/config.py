@@ -49,6 +49,7 @@ class TrainConfig:
     eval_episodes: int = field(default=8, metadata={"help": "episodes per evaluation during training (sfv eval uses 32)"})
     handover_states: str | None = field(default=None, metadata={"help": "a .npz whose `states` start a share of the episodes at the clip's first frame (a scene-fit window after the first: the previous window's policy's states there, 002 section 5.3)"})
     handover_share: float = field(default=0.5, metadata={"help": "share of episodes started from --handover-states"})
+    first_frame_share: float = field(default=0.0, metadata={"help": "share of episodes started at the reference's first frame, the rest from --init's source (actors/envs/initial_states.py FirstFrameStarts: uniform starts leave a clip that does not loop least trained where a user's episode begins); 0: off"})
     env: EnvConfig = field(default_factory=EnvConfig)
     ppo: PPOConfig = field(default_factory=PPOConfig)
 
@@ -86,6 +87,8 @@ class TrainConfig:
             raise SfvError(f"--curriculum-start-s must be >= 0 and --curriculum-samples positive, got {self.curriculum_start_s}, {self.curriculum_samples}")
         if self.eval_every < 0 or self.eval_episodes <= 0:
             raise SfvError(f"--eval-every must be >= 0 and --eval-episodes positive, got {self.eval_every}, {self.eval_episodes}")
+        if not 0.0 <= self.first_frame_share <= 1.0:
+            raise SfvError(f"--first-frame-share must lie in [0, 1], got {self.first_frame_share}")
         if not 0.0 <= self.handover_share <= 1.0:
             raise SfvError(f"--handover-share must lie in [0, 1], got {self.handover_share}")
         if self.asi_outage_s < 0:

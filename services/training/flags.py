@@ -142,7 +142,7 @@ SAFE_ON_RESUME = frozenset({
     "samples", "workers", "envs_per_worker", "runner", "device", "torch_threads", "ray_address",
     "asi_address", "asi_host", "redis_url", "asi_tls_ca", "asi_outage_s", "worker_timeout_s", "checkpoint_every",
     "keep_checkpoints", "plot_every", "plot_min_interval_s", "eval_every", "eval_episodes", "curriculum_start_s",
-    "curriculum_samples", "asi_episodes_per_update", "asi_step_size", "asi_fall_weighting",
+    "curriculum_samples", "asi_episodes_per_update", "asi_step_size", "asi_fall_weighting", "first_frame_share",
     "ppo.policy_lr", "ppo.value_lr", "ppo.update_epochs", "ppo.target_kl", "ppo.batch_size", "ppo.minibatch_size",
     "ppo.max_grad_norm", "ppo.clip_coef", "ppo.sgd_momentum", "ppo.tuple_sampling", "ppo.tuples_per_episode",
     "ppo.policy_lr_final", "ppo.action_std_final", "ppo.anneal_samples", "ppo.desired_kl",
@@ -236,9 +236,11 @@ def _default_text(value) -> str:
 
 # ------------------------------------------------------------------------- the parser
 def add_config_flags(parser: argparse.ArgumentParser, skip: frozenset[str] = frozenset(),
-                     title: str = "settings (each a config field; `--print-config` shows them all)") -> None:
+                     title: str = "settings (each a config field; `--print-config` shows them all)",
+                     default_text: dict[str, str] | None = None) -> None:
     """Every config field as a flag (default SUPPRESS: only what the user gave appears in args);
-    `skip`: config paths a command sets itself (`sfv pipeline`: the motion), with their aliases."""
+    `skip`: config paths a command sets itself (`sfv pipeline`: the motion), with their aliases;
+    `default_text`: {config path: the default the help shows} where the command has its own."""
     by_path = {leaf.path: leaf for leaf in leaves()}
     aliased = {a.paths[0]: a for a in ALIASES if len(a.paths) == 1 and a.const is _MISSING}
     group = parser.add_argument_group(title)
@@ -247,7 +249,8 @@ def add_config_flags(parser: argparse.ArgumentParser, skip: frozenset[str] = fro
             continue
         alias = aliased.get(leaf.path)
         names = list(dict.fromkeys(([alias.flag] if alias else []) + [leaf.flag]))
-        help_text = f"{(alias.help if alias and alias.help else leaf.help)} [default: {_default_text(leaf.default)}]".replace("%", "%%")
+        shown = (default_text or {}).get(leaf.path, _default_text(leaf.default))
+        help_text = f"{(alias.help if alias and alias.help else leaf.help)} [default: {shown}]".replace("%", "%%")
         base, _ = _optional(leaf.type)
         if base is bool:
             group.add_argument(*names, dest=leaf.path, action=argparse.BooleanOptionalAction, default=argparse.SUPPRESS, help=help_text)

@@ -1,0 +1,35 @@
+"""`sfv pipeline`'s training settings: sfv train's, with the static pipeline's own budget."""
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+from services.commands import pipeline
+from services.commands._pipeline_settings import STATIC_DEFAULTS, train_config
+from services.training.config import TrainConfig
+
+
+def _args(argv: list[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser()
+    sub = parser.add_subparsers()
+    pipeline.register(sub)
+    return parser.parse_args(["pipeline", "clip.mp4", "--out", "o", *argv])
+
+
+def test_the_static_pipeline_trains_longer_than_sfv_trains_quick_default_unless_told(tmp_path):
+    assert STATIC_DEFAULTS["samples"] > TrainConfig().samples
+    default = train_config(_args([]), "m.npz", str(tmp_path / "t"), STATIC_DEFAULTS)
+    assert default.samples == STATIC_DEFAULTS["samples"]
+    assert train_config(_args(["--samples", "300k"]), "m.npz", str(tmp_path / "t"), STATIC_DEFAULTS).samples == 300_000
+    config = tmp_path / "c.yaml"
+    config.write_text("samples: 400000\n")
+    from_file = train_config(_args(["--config", str(config)]), "m.npz", str(tmp_path / "t"), STATIC_DEFAULTS)
+    assert from_file.samples == 400_000
+    assert train_config(_args([]), "", "", None).samples == TrainConfig().samples  # the moving path's windows
+
+
+def test_the_help_shows_the_pipelines_own_default(capsys):
+    with pytest.raises(SystemExit):
+        _args(["--help"])
+    assert f"default: {STATIC_DEFAULTS['samples']} with a static camera" in " ".join(capsys.readouterr().out.split())
