@@ -49,7 +49,7 @@ class TrainConfig:
     eval_episodes: int = field(default=8, metadata={"help": "episodes per evaluation during training (sfv eval uses 32)"})
     handover_states: str | None = field(default=None, metadata={"help": "a .npz whose `states` start a share of the episodes at the clip's first frame (a scene-fit window after the first: the previous window's policy's states there, 002 section 5.3)"})
     handover_share: float = field(default=0.5, metadata={"help": "share of episodes started from --handover-states"})
-    first_frame_share: float = field(default=0.0, metadata={"help": "share of episodes started at the reference's first frame, the rest from --init's source (actors/envs/initial_states.py FirstFrameStarts: uniform starts leave a clip that does not loop least trained where a user's episode begins); 0: off"})
+    first_frame_share: float = field(default=0.0, metadata={"help": "share of episodes started at the reference's first frame, the rest from --init's source (actors/envs/initial_states.py FirstFrameStarts: uniform starts leave a clip that does not loop least trained where a user's episode begins: Pose2Sim cam01 from the first frame fell at 1.5 s of 1.67 s at 0, completed the clip at 0.5, NR .767, 2 M samples each); 0: off (sfv pipeline: 0.5)"})
     env: EnvConfig = field(default_factory=EnvConfig)
     ppo: PPOConfig = field(default_factory=PPOConfig)
 

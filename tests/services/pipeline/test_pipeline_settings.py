@@ -21,12 +21,14 @@ def test_the_static_pipeline_trains_longer_than_sfv_trains_quick_default_unless_
     assert STATIC_DEFAULTS["samples"] > TrainConfig().samples
     default = train_config(_args([]), "m.npz", str(tmp_path / "t"), STATIC_DEFAULTS)
     assert default.samples == STATIC_DEFAULTS["samples"]
+    assert default.first_frame_share == STATIC_DEFAULTS["first_frame_share"] > TrainConfig().first_frame_share
     assert train_config(_args(["--samples", "300k"]), "m.npz", str(tmp_path / "t"), STATIC_DEFAULTS).samples == 300_000
     config = tmp_path / "c.yaml"
     config.write_text("samples: 400000\n")
     from_file = train_config(_args(["--config", str(config)]), "m.npz", str(tmp_path / "t"), STATIC_DEFAULTS)
     assert from_file.samples == 400_000
-    assert train_config(_args([]), "", "", None).samples == TrainConfig().samples  # the moving path's windows
+    windows = train_config(_args([]), "", "", None)  # the moving path's windows
+    assert (windows.samples, windows.first_frame_share) == (TrainConfig().samples, TrainConfig().first_frame_share)
 
 
 def test_the_help_shows_the_pipelines_own_default(capsys):
