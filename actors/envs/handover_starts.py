@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from actors.envs.initial_states import FirstFrameStarts
 
-class HandoverStarts:
+
+class HandoverStarts(FirstFrameStarts):
     """`take()` like `BufferedStarts`: with probability `share` a hand-over state at phase 0."""
 
     def __init__(self, starts, states: np.ndarray, share: float, rng: np.random.Generator):
@@ -21,9 +23,8 @@ class HandoverStarts:
             raise ValueError(f"hand-over states must be a non-empty (n, state_dim) finite array, got shape {states.shape}")
         if not 0.0 <= share <= 1.0:
             raise ValueError(f"hand-over share must lie in [0, 1], got {share}")
-        self.starts, self.states, self.share, self.rng = starts, states, float(share), rng
+        super().__init__(starts, share, rng)
+        self.states = states
 
-    def take(self):
-        if self.rng.random() < self.share:
-            return 0.0, -1, self.states[int(self.rng.integers(len(self.states)))]
-        return self.starts.take()
+    def _first_frame(self):
+        return 0.0, -1, self.states[int(self.rng.integers(len(self.states)))]

@@ -72,5 +72,9 @@ class FirstFrameStarts:
 
     def take(self):
         if self.rng.random() < self.share:
-            return 0.0, -1, None
+            return self._first_frame()
         return self.starts.take()
+
+    def _first_frame(self):
+        """(phase 0, component -1, state): None puts the character on the reference there."""
+        return 0.0, -1, None

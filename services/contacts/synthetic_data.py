@@ -3,8 +3,8 @@
 movingcam renders motion-capture clips through virtual cameras and labels the contacts from
 the capture. Here every DeepMimic clip in `pybullet_data` (and its mirror image) is played
 kinematically on the humanoid at `NETWORK_FPS`: looping clips three cycles, the others once,
-each at its own pace and at half speed,
-and six of its poses with a foot down held for two seconds (`held_poses`).
+each at its own pace and at half speed, and six of its poses with a foot down held for two
+seconds (`held_poses`).
 The 17 fit points (`services.reconstruction.keypoints`) are projected through random
 cameras into a 640x480 picture, in the paper's camera settings and one more:
 - static: fixed, looking at the clip's mean root position;
