@@ -79,6 +79,22 @@ class StateLayout:
         rotvecs = qn.quat_to_axis_angle(qpos[self._quat_qpos]).ravel()
         return np.concatenate((qpos[2:3], rotvecs, qpos[self.hinge_qpos], qvel))
 
+    def transfer(self, qpos: np.ndarray, qvel: np.ndarray, from_qpos: np.ndarray, from_qvel: np.ndarray,
+                 to_qpos: np.ndarray, to_qvel: np.ndarray) -> None:
+        """Carry a state's deviation from one reference state onto another, in place.
+
+        Rotations are perturbed in their own frame (q' = to from^-1 q: the same local offset
+        from `to` as q has from `from`); positions, hinge angles and velocities add. A start
+        drawn about the reference at one phase becomes the same perturbation at a nearby
+        phase (ASI's components sit at k phases, the starts spread over their bins)."""
+        quats = self._quat_qpos
+        delta = qn.quat_mul(to_qpos[quats], qn.quat_conj(from_qpos[quats]))
+        q = qpos[quats].copy()
+        qpos[:3] += to_qpos[:3] - from_qpos[:3]
+        qpos[self.hinge_qpos] += to_qpos[self.hinge_qpos] - from_qpos[self.hinge_qpos]
+        qpos[quats] = qn.quat_normalize(qn.quat_mul(delta, q))
+        qvel += to_qvel - from_qvel
+
     def apply_state_vector(self, state: np.ndarray, root_xy: np.ndarray, qpos: np.ndarray, qvel: np.ndarray) -> None:
         qpos[0:2] = root_xy
         if self.space == "rotvec":

@@ -203,7 +203,9 @@ class ImitationEnv(CoreParts, gym.Env):
 
     # ------------------------------------------------------------------------ reset
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        """options: {"init": "fsi"|"rsi"|"state", "phase": float, "state": (state_dim,) array}."""
+        """options: {"init": "fsi"|"rsi"|"state", "phase": float, "state": (state_dim,) array,
+        "state_phase": float}. With `state_phase` the state was drawn about the reference at
+        that phase: its deviation from there is carried onto the reference at `phase`."""
         super().reset(seed=seed)
         options = options or {}
         init = options.get("init", "state" if "state" in options else self.config.init)
@@ -226,7 +228,11 @@ class ImitationEnv(CoreParts, gym.Env):
             state = np.asarray(options["state"], dtype=np.float64)
             if state.shape != (self.state_dim,) or not np.isfinite(state).all():
                 raise ValueError(f"initial state must be {self.state_dim} finite numbers, got shape {state.shape}")
-            self.layout.apply_state_vector(state, self.track.qpos[start, :2], self.data.qpos, self.data.qvel)
+            anchor = self.track.start_index(float(options["state_phase"])) if "state_phase" in options else start
+            self.layout.apply_state_vector(state, self.track.qpos[anchor, :2], self.data.qpos, self.data.qvel)
+            if anchor != start:
+                track = self.track
+                self.layout.transfer(self.data.qpos, self.data.qvel, track.qpos[anchor], track.qvel[anchor], track.qpos[start], track.qvel[start])
         else:
             self.data.qpos[:] = self.track.qpos[start]
             self.data.qvel[:] = self.track.qvel[start]

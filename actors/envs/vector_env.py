@@ -55,7 +55,12 @@ class EpisodeLog:
 
 
 class VectorImitationEnv(CoreParts):
-    def __init__(self, motion: ReferenceMotion, config: EnvConfig, num_envs: int, starts: BufferedStarts, seed: int = 0, gamma: float = 0.95):
+    def __init__(self, motion: ReferenceMotion, config: EnvConfig, num_envs: int, starts: BufferedStarts, seed: int = 0, gamma: float = 0.95,
+                 start_phase_spread: float = 0.0):
+        """`start_phase_spread`: a start that carries a state (ASI's) begins at a phase drawn
+        uniformly within this width around the start's own, the state's deviation from the
+        reference carried there (`ImitationEnv.reset`'s `state_phase`); the episode log keeps
+        the state as drawn, which is what ASI's gradient needs. 0: at the start's phase."""
         motion = env_reference(motion, config)  # once for the M envs (a clip retargeted or closed here)
         humanoid = build_body(config, motion)  # one compiled model for the M envs (a scene's env copies its own)
         track = ReferenceTrack(motion, humanoid, 1.0 / config.control_hz, config.horizon_s)
@@ -80,6 +85,11 @@ class VectorImitationEnv(CoreParts):
         self.episodes = EpisodeLog(state_dim=self.state_dim)
         self._seed = seed
         self._seeded = False
+        if not 0.0 <= start_phase_spread <= 1.0:
+            raise ValueError(f"start phase spread must lie in [0, 1], got {start_phase_spread}")
+        self.start_phase_spread = float(start_phase_spread)
+        self._phase_rng = np.random.default_rng([seed, 4])
+        self._loop = motion.loop
         # The env core over the batch: per-env MuJoCo, then one pass of feature maths over all envs.
         first = self.envs[0]
         self.track = track
@@ -123,20 +133,29 @@ class VectorImitationEnv(CoreParts):
         env = self.envs[i]
         phase, component, state = self.starts.take()
         options = {"phase": phase, "init": "state" if state is not None else "rsi"}
+        spread = state is not None and self.start_phase_spread > 0
         if state is not None:
             options["state"] = state
+        if spread:
+            options["state_phase"], options["phase"] = phase, self._spread_phase(phase)
         seed = None if self._seeded else self._seed + i
         env.reset(seed=seed, options=options)
         env.observation_into(self.obs[i])
         self._rows[i] = env.row
         self.root_sync.reset(i, env.data.qpos[:2], env.row)
-        self._init_state[i] = env.state_vector()
+        self._init_state[i] = state if spread else env.state_vector()
         self._component[i] = component
         self._ret[i] = self._disc[i] = 0.0
         self._discount[i] = 1.0
         self._len[i] = 0
         if i == self.num_envs - 1:
             self._seeded = True
+
+    def _spread_phase(self, phase: float) -> float:
+        """A phase uniform within `start_phase_spread` around `phase` (wrapped on a loop,
+        clamped to the clip otherwise)."""
+        drawn = phase + self.start_phase_spread * (self._phase_rng.random() - 0.5)
+        return drawn % 1.0 if self._loop else min(max(drawn, 0.0), 1.0)
 
     def step(self, actions: np.ndarray):
         """Step every env; returns views of (obs, rewards, terminated, truncated, final_obs).

@@ -50,6 +50,7 @@ class WorkerSpec:
     handover_states: np.ndarray | None = None  # (n, state_dim): a scene-fit window's starts at phase 0 (actors/envs/handover_starts.py)
     handover_share: float = 0.5  # share of episodes started from them
     first_frame_share: float = 0.0  # share of episodes started at the reference's first frame (FirstFrameStarts)
+    start_phase_spread: float = 0.0  # a state start's phase spread uniformly over this width around its own (VectorImitationEnv)
 
 
 class _ServerStarts:
@@ -95,7 +96,8 @@ class RolloutWorker:
             starts = FirstFrameStarts(starts, spec.first_frame_share, np.random.default_rng([self.seed, 3]))
         if spec.handover_states is not None:
             starts = HandoverStarts(starts, spec.handover_states, spec.handover_share, np.random.default_rng([self.seed, 2]))
-        self.env = VectorImitationEnv(spec.motion, spec.env, spec.num_envs, starts, seed=self.seed * 1000, gamma=spec.gamma)
+        self.env = VectorImitationEnv(spec.motion, spec.env, spec.num_envs, starts, seed=self.seed * 1000, gamma=spec.gamma,
+                                     start_phase_spread=spec.start_phase_spread)
         self.policy: NumpyPolicy | None = None
         self._weights: dict | None = None
         self._started = False

@@ -33,6 +33,7 @@ class TrainConfig:
     asi_initial_std_scale: float = field(default=0.1, metadata={"help": "initial std of every ASI component = this x the clip's per-dimension sample std (paper: 1). Measured with a trained walk policy over the first 2 s (services/bench/scripts/asi_start_spread.py): RSI reward/step .93, no falls; ASI at 1: .53, 57 in 100 starts fall (rotvec), 59 (qpos); 0.5: .76, 28; 0.25: .91, 5; 0.1: .94, 0. The fast clips' velocity spreads are 2-3x the walk's: control steps survived under pure PD tracking from 30 starts (services/bench/scripts/pd_tracking.py), reference / 0.1 / 0.25: dance_a 31 / 32 / 29, spinkick 29 / 28 / 26, backflip 29 / 29 / 25, cartwheel 46 / 45 / 35"})
     asi_step_size: float = field(default=0.001, metadata={"help": "ASI step size alpha_rho (paper: 0.001 with --asi-update-rule gradient; with natural it is the step in units of sigma, e.g. 0.1)"})
     asi_update_rule: str = field(default="gradient", metadata={"choices": ("gradient", "natural"), "help": "ASI's update: gradient (the paper's step: it grows as 1/sigma^2 and with the returns' scale; asi/mean_shift_sigma in the metrics says how far it moved) or natural (normalised advantages, Fisher-preconditioned: services/asi/distribution.py natural_step)"})
+    asi_phase_spread: float = field(default=0.0, metadata={"help": "spread each ASI start's phase uniformly over this fraction of its component's phase bin (width 1/k, centred on the component's phase), carrying the drawn state's deviation from the reference at the component's phase onto the reference at the drawn phase (actors/character/state.py transfer); ASI still learns from the draw itself. 0: the paper's k fixed start phases, where `sfv eval`'s 32 evenly spaced phases start most episodes at phases training never started from; 1: every frame a start"})
     asi_fall_weighting: float = field(default=0.0, metadata={"help": "beta in [0, 1]: ASI draws component c with p = (1 - beta)/k + beta f_c / sum f, f_c the running fall rate of c's episodes (start more episodes where they fall, as ProtoMotions/PHC weight motions); 0 = the paper's uniform p(phi). Not yet measured on minutes-to-skill, so off; asi/weight_max and asi/fall_rate/<c> in the metrics show where starts go"})
     job_id: str | None = field(default=None, metadata={"help": "ASI job id; derived from the run directory when absent"})
     checkpoint_every: int = field(default=10, metadata={"help": "iterations between checkpoints (and at the end)"})
@@ -87,6 +88,8 @@ class TrainConfig:
             raise SfvError(f"--curriculum-start-s must be >= 0 and --curriculum-samples positive, got {self.curriculum_start_s}, {self.curriculum_samples}")
         if self.eval_every < 0 or self.eval_episodes <= 0:
             raise SfvError(f"--eval-every must be >= 0 and --eval-episodes positive, got {self.eval_every}, {self.eval_episodes}")
+        if not 0.0 <= self.asi_phase_spread <= 1.0:
+            raise SfvError(f"--asi-phase-spread must lie in [0, 1], got {self.asi_phase_spread}")
         if not 0.0 <= self.first_frame_share <= 1.0:
             raise SfvError(f"--first-frame-share must lie in [0, 1], got {self.first_frame_share}")
         if not 0.0 <= self.handover_share <= 1.0:

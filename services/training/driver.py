@@ -160,7 +160,8 @@ class Trainer:
             spec = WorkerSpec(motion, config.env, config.envs_per_worker, config.init, config.seed, config.ppo.gamma,
                               asi.address, config.job_id, asi.token, asi_tls_ca=config.asi_tls_ca,
                               asi_outage_s=config.asi_outage_s, handover_states=_handover_states(config),
-                              handover_share=config.handover_share, first_frame_share=config.first_frame_share)
+                              handover_share=config.handover_share, first_frame_share=config.first_frame_share,
+                              start_phase_spread=config.asi_phase_spread / config.asi_components if config.init == "asi" else 0.0)
             self.runner = make_runner(config, self.worker_class, self.faults)
             self.runner.start(spec)
             self.asi_drift = ASIDrift(asi.client) if config.init == "asi" else None

@@ -33,6 +33,10 @@ Figures (one dict):
 - episodes; with pushes: pushes, push_impulse_ns, push_duration_s, push_episodes, push_survival_rate.
 - fall_phases: the clip phase (0 at its first frame, 1 at its last) at which each fall happened,
   sorted: falls bunched at one phase name the part of the clip the controller has not learned.
+- fall_starts: for each fall, the phase its episode started at and the seconds it lasted, sorted by
+  start phase: falls within the first clip cycle from starts bunched between the phases training
+  starts from say the policy never learned to begin there (ASI's k fixed phases), not that it
+  cannot hold the skill.
 - first_frame (`sfv eval`, clips that do not loop): the episode a user sees first, started at the
   clip's first frame (FSI) and run to the clip's end with the same strict falls and no pushes:
   normalized_return, fell, episode_seconds of clip_seconds, joint_rotation_error_rad,
@@ -145,6 +149,7 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
     returns, lengths, falls = np.zeros(episodes), np.zeros(episodes), np.zeros(episodes, dtype=bool)
     divergences = 0
     fall_phases: list[float] = []  # the clip's phase at each fall: where in the clip episodes end
+    fall_starts: list[dict] = []  # each fall's start phase and seconds survived
     rotation_sum = end_effector_sum = 0.0
     error_steps = 0
     sim_distance = ref_distance = 0.0
@@ -177,6 +182,7 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
                 if detector(data):
                     fell = True
                     fall_phases.append(float(track.phase[env.row]))
+                    fall_starts.append({"start_phase": round(float(track.phase[start_row]), 3), "seconds": round(steps / hz, 2)})
                     total += 0.0 if zero_on_fall else reward
                     break
                 total += reward
@@ -219,6 +225,7 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
         "divergences": int(divergences),
         "episodes": int(episodes),
         "fall_phases": [round(p, 3) for p in sorted(fall_phases)],
+        "fall_starts": sorted(fall_starts, key=lambda f: f["start_phase"]),
     }
     if schedule_config is not None:
         result.update(pushes=int(pushes), push_impulse_ns=schedule_config.impulse, push_duration_s=schedule_config.duration_s,

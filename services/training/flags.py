@@ -142,7 +142,7 @@ SAFE_ON_RESUME = frozenset({
     "samples", "workers", "envs_per_worker", "runner", "device", "torch_threads", "ray_address",
     "asi_address", "asi_host", "redis_url", "asi_tls_ca", "asi_outage_s", "worker_timeout_s", "checkpoint_every",
     "keep_checkpoints", "plot_every", "plot_min_interval_s", "eval_every", "eval_episodes", "curriculum_start_s",
-    "curriculum_samples", "asi_episodes_per_update", "asi_step_size", "asi_fall_weighting", "first_frame_share",
+    "curriculum_samples", "asi_episodes_per_update", "asi_step_size", "asi_fall_weighting", "asi_phase_spread", "first_frame_share",
     "ppo.policy_lr", "ppo.value_lr", "ppo.update_epochs", "ppo.target_kl", "ppo.batch_size", "ppo.minibatch_size",
     "ppo.max_grad_norm", "ppo.clip_coef", "ppo.sgd_momentum", "ppo.tuple_sampling", "ppo.tuples_per_episode",
     "ppo.policy_lr_final", "ppo.action_std_final", "ppo.anneal_samples", "ppo.desired_kl",

@@ -38,8 +38,11 @@ def _serve_worker(worker_class, spec, index: int, conn) -> None:
         while (request := conn.recv()) is not None:
             weights, version, steps, options = request
             conn.send(("batch", worker.sample(weights, version, steps, **options)))
+    except EOFError:  # the driver closed the pipe: the run is over (no traceback for people to read)
+        return
     except Exception as exc:  # reported to the driver, which stops the run
-        conn.send(("error", f"worker {index}: {type(exc).__name__}: {exc}"))
+        with contextlib.suppress(OSError):  # a driver already gone cannot hear it
+            conn.send(("error", f"worker {index}: {type(exc).__name__}: {exc}"))
 
 
 class ProcessWorker:

@@ -114,6 +114,9 @@ def test_fall_phases_say_where_in_the_clip_each_fall_happened(stand):
     starts = np.arange(4) / 4
     later = np.mod(phases[:, None] - starts[None, :], 1.0) * stand.duration
     assert np.all(np.sort(later.min(axis=0)) < 1.0) and np.all(later.min(axis=0) > 0.0)
+    falls = knelt["fall_starts"]
+    assert [f["start_phase"] for f in falls] == pytest.approx(starts, abs=1.0 / (30 * stand.duration))
+    assert all(0.0 < f["seconds"] < 1.0 for f in falls)
 
 
 def test_without_termination_the_env_alone_lets_the_kneeling_character_go_on(stand):

@@ -1,0 +1,15 @@
+"""services/bench/scripts/flight_momentum.py: the backflip's flight is found where physics says it is."""
+from __future__ import annotations
+
+from tests.bench_scripts import load_bench_script
+
+
+def test_the_backflips_longest_flight_falls_near_g_and_its_momentum_is_reported():
+    script = load_bench_script("flight_momentum")
+    result = script.reference_flight("backflip")
+    assert len(result["airborne_per_row"]) == result["start_rows"] == len(result["angular_momentum_norm_per_row"])
+    flight = max(result["flights"], key=lambda f: f["seconds"])
+    assert 0.3 < flight["seconds"] < 0.8, "a backflip is in the air for about half a second"
+    assert -12.0 < flight["com_vertical_acceleration"] < -7.0, "in the air the centre of mass falls at about g"
+    first, last = flight["angular_momentum_norm_first_last"]
+    assert first > 5.0 and last > 5.0, "it rotates through the flight"
