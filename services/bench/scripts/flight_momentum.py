@@ -6,9 +6,11 @@ or `sfv eval` start there) carries the momentum the reference's kinematic veloci
 body's masses; if that momentum changes along the reference's own flight, a start at one flight
 phase cannot reach the reference's landing, whatever the policy does (limbs can redistribute
 rotation, not create it). For each start row of one pass of the clip: airborne (no contact with
-the ground in the reference pose, 3 cm margin), the whole-body angular momentum about the CoM (kg m^2/s,
+the ground in the reference pose), the whole-body angular momentum about the CoM (kg m^2/s,
 world frame) and the CoM's vertical velocity; per airborne stretch, how far the momentum moves
-against its mean and the CoM's vertical acceleration against -9.81 m/s^2.
+against its mean and the CoM's vertical acceleration against -9.81 m/s^2. A stretch whose CoM does
+not fall at about g is a reference hovering its feet over the floor, not a flight (the jump's and
+the cartwheel's standing rows): read the acceleration before the momentum.
 
     python services/bench/scripts/flight_momentum.py --clips backflip,spin,jump --out bench/results/acrobatics/flight_momentum.json
 """
@@ -32,8 +34,6 @@ def reference_flight(clip: str) -> dict:
     env = ImitationEnv(load_motion(f"deepmimic:{clip}"), EnvConfig())
     model, data, track = env.model, env.data, env.track
     root = 1  # the character's root body: its subtree is the whole body
-    # Contacts within 3 cm count: mocap feet hover a few cm over the floor while standing.
-    model.geom_margin[:] = 0.03
     rows = track.start_steps
     airborne = np.zeros(rows, bool)
     momentum = np.zeros((rows, 3))
