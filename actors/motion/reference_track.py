@@ -4,7 +4,9 @@ Episodes start on the control-step grid (k0 * dt), so the reference at every ste
 episode is a row of this table. Each row holds the reference's qpos / qvel (to start an
 episode on it), its PD targets (the actuator lengths of the reference pose, what residual
 actions add to) and the reward's kinematic features, computed once with MuJoCo itself on a
-scratch MjData, so the reward compares like with like.
+scratch MjData, so the reward compares like with like. Start velocities in a flight are made
+ballistic (`actors/motion/ballistic_flight.py`) unless `flight_starts` is "reference"; the reward's
+features keep the reference's own.
 """
 from __future__ import annotations
 
@@ -15,12 +17,18 @@ import numpy as np
 
 from actors.character.features import FeatureExtractor, RewardFeatures, pose_obs_width, update_kinematics
 from actors.character.humanoid3d import Humanoid
+from actors.motion.ballistic_flight import FlightReport, ballistic_start_velocities
 from actors.motion.reference_motion import ReferenceMotion
 from actors.character.state import StateLayout
 
+FLIGHT_STARTS = ("ballistic", "reference")
+
 
 class ReferenceTrack:
-    def __init__(self, motion: ReferenceMotion, humanoid: Humanoid, control_dt: float, horizon_s: float):
+    def __init__(self, motion: ReferenceMotion, humanoid: Humanoid, control_dt: float, horizon_s: float,
+                 flight_starts: str = "ballistic"):
+        if flight_starts not in FLIGHT_STARTS:
+            raise ValueError(f"flight_starts must be one of {FLIGHT_STARTS}, got {flight_starts!r}")
         self.motion = motion
         self.dt = control_dt
         # Start indices cover one pass of the clip; looped episodes then run `horizon` steps.
@@ -61,6 +69,9 @@ class ReferenceTrack:
             self.features.values[k] = features.reward_features_of(scratch).values[0]
             features.observations(self.phase[k], observation)  # the rows just captured
             self.pose_obs[k] = observation[0, :pose_width]
+        self.flights = FlightReport()
+        if flight_starts == "ballistic":
+            self.qvel, self.flights = ballistic_start_velocities(model, self.qpos, self.qvel, control_dt)
         self._rows = [self.features.slice(slice(k, k + 1)) for k in range(rows)]  # views, built once
 
     def reward_features(self, row: int) -> RewardFeatures:

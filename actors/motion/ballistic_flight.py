@@ -1,0 +1,136 @@
+"""Start states in a clip's flight made ballistic: one angular momentum and a parabola per flight.
+
+Once nothing touches the ground, physics keeps the body's angular momentum about its centre of
+mass constant and drops the centre of mass at g. A reference's kinematic velocities need not: on
+our humanoid the backflip's flight (phases .38-.67) carries 25 -> 66 -> 24 kg m^2/s
+(`services/bench/scripts/flight_momentum.py`), so an episode started mid-flight from the reference's
+velocities spins 2.6x faster than any take-off can make it, and no action changes that in the air.
+Five of the backflip's six `sfv eval` falls at 14 M samples started there (phases .34-.50). That
+policy trained 3 M samples more with ballistic starts: `sfv eval` (itself ballistic) .694 with 6 / 32
+falls -> .759 with 4, no fall left that starts mid-flight
+(`bench/results/acrobatics/eval_backflip_ballistic_ft.json`).
+
+Each flight (rows whose reference pose touches nothing, at least `MIN_FLIGHT_ROWS` long, whose
+centre of mass falls at more than half of g: a stretch that does not is feet hovering over the
+floor, not a flight) gets, for start states only:
+- one angular momentum L* = (sum_k I_k^-1)^-1 sum_k I_k^-1 L_k, with I_k the whole body's inertia
+  about its centre of mass in row k's pose: the constant momentum whose rotation rate, summed over
+  the flight's poses, turns the body as far as the reference's does (a least-squares fit of the
+  angular velocities). Measured on the backflip: L* = 41.1 kg m^2/s, and the policy trained to 14 M
+  samples from the reference's velocities carries 39.9-41.6 through its own flight from the clip's
+  first frame (`services/bench/scripts/flight_momentum.py --run`): the momentum a take-off gives;
+- the centre of mass's velocity on the parabola under g that fits the reference's centre of mass
+  positions best.
+A row's velocities change only by a rigid-body rotation and translation of the whole body (the
+root's angular and linear velocity; joint velocities keep theirs), so its pose and limb motion are
+the reference's. The reward still compares against the reference's own velocities. DeepMimic and
+SFV start from the reference's velocities as they are; this is ours, and `EnvConfig.flight_starts`
+= "reference" turns it off.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+MIN_FLIGHT_ROWS = 3
+GRAVITY = 9.81
+
+
+@dataclass
+class Flight:
+    rows: tuple[int, int]  # [first, last] airborne rows
+    momentum_before: tuple[float, float]  # smallest and largest |L| of the reference's rows (kg m^2/s)
+    momentum_after: float  # |L*|
+    com_vertical_acceleration: float  # the reference's fitted CoM acceleration (physics: -9.81)
+    root_angular_velocity_change: float  # the largest |delta omega| applied to a row (rad/s)
+
+
+@dataclass
+class FlightReport:
+    flights: list[Flight] = field(default_factory=list)
+
+
+class _RowKinematics:
+    """Per-row centre of mass, its velocity, angular momentum about it, and the whole-body inertia."""
+
+    def __init__(self, model: mujoco.MjModel):
+        self.model = model
+        self.data = mujoco.MjData(model)
+
+    def measure(self, qpos: np.ndarray, qvel: np.ndarray) -> tuple[bool, np.ndarray, np.ndarray, np.ndarray]:
+        d = self.data
+        d.qpos[:] = qpos
+        d.qvel[:] = qvel
+        mujoco.mj_forward(self.model, d)
+        mujoco.mj_subtreeVel(self.model, d)
+        return d.ncon == 0, d.subtree_com[1].copy(), d.subtree_linvel[1].copy(), d.subtree_angmom[1].copy()
+
+    def rigid_basis(self, qpos: np.ndarray, qvel: np.ndarray, com: np.ndarray) -> np.ndarray:
+        """(6, nv): the qvel changes that turn the whole body at unit world angular velocity about
+        its centre of mass (rows 0-2) and move it at unit world velocity (rows 3-5)."""
+        basis = np.zeros((6, self.model.nv))
+        quat = qpos[3:7]
+        rot = np.zeros(9)
+        mujoco.mju_quat2Mat(rot, quat)
+        rot = rot.reshape(3, 3)  # body-to-world: free-joint angular velocity is in the body frame
+        lever = com - qpos[:3]
+        for i in range(3):
+            w = np.eye(3)[i]
+            basis[i, 3:6] = rot.T @ w
+            basis[i, 0:3] = -np.cross(w, lever)  # keeps the centre of mass where it is going
+            basis[3 + i, i] = 1.0
+        return basis
+
+    def inertia(self, qpos: np.ndarray, qvel: np.ndarray, com: np.ndarray, momentum: np.ndarray) -> np.ndarray:
+        """3x3 whole-body inertia about the centre of mass, by the momentum's linear response."""
+        basis = self.rigid_basis(qpos, qvel, com)
+        columns = [self.measure(qpos, qvel + basis[i])[3] - momentum for i in range(3)]
+        return np.stack(columns, axis=1)
+
+
+def flight_stretches(airborne: np.ndarray, com_z: np.ndarray, dt: float) -> list[tuple[int, int]]:
+    """[a, b) row ranges that are flights: airborne for MIN_FLIGHT_ROWS rows or more, with the
+    centre of mass falling at more than g / 2."""
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], airborne.astype(int), [0]))))
+    out = []
+    for a, b in zip(edges[::2], edges[1::2]):
+        if b - a < MIN_FLIGHT_ROWS:
+            continue
+        t = np.arange(b - a) * dt
+        if 2.0 * np.polyfit(t, com_z[a:b], 2)[0] < -GRAVITY / 2:
+            out.append((int(a), int(b)))
+    return out
+
+
+def ballistic_start_velocities(model: mujoco.MjModel, qpos: np.ndarray, qvel: np.ndarray, dt: float) -> tuple[np.ndarray, FlightReport]:
+    """`qvel` (rows, nv) with each flight's rows made ballistic (see the module docstring);
+    rows outside flights are returned unchanged."""
+    rows = len(qpos)
+    kin = _RowKinematics(model)
+    measured = [kin.measure(qpos[k], qvel[k]) for k in range(rows)]
+    airborne = np.array([m[0] for m in measured])
+    com = np.array([m[1] for m in measured])
+    out = qvel.copy()
+    report = FlightReport()
+    for a, b in flight_stretches(airborne, com[:, 2], dt):
+        t = np.arange(b - a) * dt
+        inertias = [kin.inertia(qpos[k], qvel[k], com[k], measured[k][3]) for k in range(a, b)]
+        inverse = [np.linalg.inv(i) for i in inertias]
+        target = np.linalg.solve(sum(inverse), sum(inv @ measured[k][3] for inv, k in zip(inverse, range(a, b))))
+        # The parabola under g through the reference's centre of mass: z - (-g t^2 / 2) is linear in t.
+        lift = com[a:b].copy()
+        lift[:, 2] += 0.5 * GRAVITY * t ** 2
+        slope = np.polyfit(t, lift, 1)[0]
+        largest = 0.0
+        for j, k in enumerate(range(a, b)):
+            d_omega = inverse[j] @ (target - measured[k][3])
+            velocity = slope - np.array([0.0, 0.0, GRAVITY * t[j]])
+            basis = kin.rigid_basis(qpos[k], qvel[k], com[k])
+            out[k] = qvel[k] + d_omega @ basis[:3] + (velocity - measured[k][2]) @ basis[3:]
+            largest = max(largest, float(np.linalg.norm(d_omega)))
+        norms = [float(np.linalg.norm(measured[k][3])) for k in range(a, b)]
+        accel = 2.0 * float(np.polyfit(t, com[a:b, 2], 2)[0])
+        report.flights.append(Flight((a, b - 1), (min(norms), max(norms)), float(np.linalg.norm(target)), accel, largest))
+    return out, report

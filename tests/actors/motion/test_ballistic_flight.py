@@ -1,0 +1,78 @@
+"""Start states in a flight are ballistic: one angular momentum, the centre of mass falling at g,
+the pose and the joints' own velocities the reference's."""
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.motion.ballistic_flight import GRAVITY, ballistic_start_velocities, flight_stretches
+from actors.motion.formats.io import load_motion
+
+
+@pytest.fixture(scope="module")
+def backflip_env():
+    return ImitationEnv(load_motion("deepmimic:backflip"), EnvConfig(flight_starts="reference"))
+
+
+def _momentum_and_com_velocity(model, qpos, qvel):
+    data = mujoco.MjData(model)
+    data.qpos[:], data.qvel[:] = qpos, qvel
+    mujoco.mj_forward(model, data)
+    mujoco.mj_subtreeVel(model, data)
+    return data.subtree_angmom[1].copy(), data.subtree_linvel[1].copy()
+
+
+def test_backflip_flight_gets_one_momentum_and_a_parabola(backflip_env):
+    track, model = backflip_env.track, backflip_env.model
+    qvel, report = ballistic_start_velocities(model, track.qpos, track.qvel, track.dt)
+    first = report.flights[0]
+    a, b = first.rows
+    assert 0.3 < track.phase[a] < 0.45 and 0.6 < track.phase[b] < 0.75  # the flip's flight
+    assert first.momentum_before[1] > 2 * first.momentum_before[0]  # the reference's is not constant
+    before = [_momentum_and_com_velocity(model, track.qpos[k], track.qvel[k]) for k in range(a, b + 1)]
+    after = [_momentum_and_com_velocity(model, track.qpos[k], qvel[k]) for k in range(a, b + 1)]
+    momenta = np.array([m for m, _ in after])
+    np.testing.assert_allclose(momenta, np.broadcast_to(momenta[0], momenta.shape), atol=1e-6)
+    assert np.linalg.norm(momenta[0]) == pytest.approx(first.momentum_after, rel=1e-6)
+    # Between the reference's smallest and largest momentum: a weighted mean, not a take-off's.
+    assert first.momentum_before[0] < first.momentum_after < first.momentum_before[1]
+    velocities = np.array([v for _, v in after])
+    np.testing.assert_allclose(np.diff(velocities[:, 2]), -GRAVITY * track.dt, atol=1e-9)
+    np.testing.assert_allclose(np.diff(velocities[:, :2], axis=0), 0.0, atol=1e-9)
+    # Only the whole body's rigid motion changed: the joints move as the reference's do.
+    np.testing.assert_array_equal(qvel[:, 6:], track.qvel[:, 6:])
+    changed = np.flatnonzero(np.any(qvel != track.qvel, axis=1))
+    in_flights = np.concatenate([np.arange(f.rows[0], f.rows[1] + 1) for f in report.flights])
+    assert set(changed) <= set(in_flights) and len(changed) > 0
+    assert np.abs(np.array([m for m, _ in before])[:, 1]).max() > np.abs(momenta[0, 1]) + 10
+
+
+def test_the_env_starts_from_ballistic_velocities_by_default():
+    motion = load_motion("deepmimic:backflip")
+    ballistic = ImitationEnv(motion, EnvConfig())
+    reference = ImitationEnv(motion, EnvConfig(flight_starts="reference"))
+    row = ballistic.track.start_index(0.5)
+    ballistic.reset(options={"init": "rsi", "phase": 0.5})
+    assert ballistic.track.flights.flights and not reference.track.flights.flights
+    np.testing.assert_array_equal(ballistic.data.qvel, ballistic.track.qvel[row])
+    assert not np.allclose(ballistic.track.qvel[row], reference.track.qvel[row])
+    np.testing.assert_array_equal(ballistic.track.qpos, reference.track.qpos)
+    np.testing.assert_array_equal(ballistic.track.features.values, reference.track.features.values)  # the reward's targets
+
+
+def test_walk_has_no_flight_and_keeps_its_velocities():
+    env = ImitationEnv(load_motion("deepmimic:walk"), EnvConfig(flight_starts="reference"))
+    qvel, report = ballistic_start_velocities(env.model, env.track.qpos, env.track.qvel, env.track.dt)
+    assert report.flights == []
+    np.testing.assert_array_equal(qvel, env.track.qvel)
+
+
+def test_hovering_feet_are_not_a_flight():
+    dt = 1 / 30
+    t = np.arange(10) * dt
+    airborne = np.ones(10, bool)
+    assert flight_stretches(airborne, 0.9 + 0.0 * t, dt) == []  # off the floor, not falling
+    assert flight_stretches(airborne, 1.0 + 2.0 * t - 0.5 * GRAVITY * t ** 2, dt) == [(0, 10)]
+    assert flight_stretches(np.array([0, 1, 1, 0] * 3, bool), np.zeros(12), dt) == []  # too short
