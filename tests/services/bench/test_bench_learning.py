@@ -102,7 +102,8 @@ def test_run_without_a_record_resumes_from_its_checkpoint(grid):
 
 
 @pytest.mark.parametrize("flags, flag", [(["--inits", "asi,xsi"], "--inits"), (["--samples", "0"], "--samples"),
-                                         (["--skills", "deepmimic:nope"], "--skills")])
+                                         (["--skills", "deepmimic:nope"], "--skills"),
+                                         (["--serial", "--runner", "processes"], "--serial")])
 def test_bad_flags_exit_2_and_write_nothing(tmp_path, capsys, flags, flag):
     out_dir = tmp_path / "out"
     assert main(["bench", "--suite", "learning", "--out-dir", str(out_dir), *flags]) == 2
@@ -170,3 +171,20 @@ def test_two_invocations_sharing_an_out_dir_keep_each_others_runs(tmp_path):
     _save(doc_a, first, {"name": first.name, "status": "complete"}, config)
     runs = json.loads((tmp_path / "learning.json").read_text())["runs"]
     assert {name: run["status"] for name, run in runs.items()} == {"jump_asi_s0": "complete", "spin_asi_s0": "complete"}
+
+
+def test_the_runner_flag_reaches_every_run_and_the_recorded_command(tmp_path):
+    import argparse
+
+    from services.bench import learning_suite as suite
+
+    parser = argparse.ArgumentParser()
+    suite.add_arguments(parser)
+    args = parser.parse_args(["--out-dir", str(tmp_path / "out"), "--skills", "walk", "--inits", "rsi", "--runner", "processes"])
+    config = suite.config_from_args(args)
+    train = suite.train_config(config, suite.cells(config)[0])
+    assert train.runner == "processes" and not train.serial
+    assert "--runner processes" in suite.command_line(config)
+    serial = suite.config_from_args(parser.parse_args(["--out-dir", str(tmp_path / "out"), "--skills", "walk", "--serial"]))
+    assert suite.train_config(serial, suite.cells(serial)[0]).runner == "in_process"
+    assert "--runner" not in suite.command_line(serial)
