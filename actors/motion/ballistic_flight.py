@@ -67,7 +67,7 @@ class _RowKinematics:
         mujoco.mj_subtreeVel(self.model, d)
         return d.ncon == 0, d.subtree_com[1].copy(), d.subtree_linvel[1].copy(), d.subtree_angmom[1].copy()
 
-    def rigid_basis(self, qpos: np.ndarray, qvel: np.ndarray, com: np.ndarray) -> np.ndarray:
+    def rigid_basis(self, qpos: np.ndarray, com: np.ndarray) -> np.ndarray:
         """(6, nv): the qvel changes that turn the whole body at unit world angular velocity about
         its centre of mass (rows 0-2) and move it at unit world velocity (rows 3-5)."""
         basis = np.zeros((6, self.model.nv))
@@ -85,7 +85,7 @@ class _RowKinematics:
 
     def inertia(self, qpos: np.ndarray, qvel: np.ndarray, com: np.ndarray, momentum: np.ndarray) -> np.ndarray:
         """3x3 whole-body inertia about the centre of mass, by the momentum's linear response."""
-        basis = self.rigid_basis(qpos, qvel, com)
+        basis = self.rigid_basis(qpos, com)
         columns = [self.measure(qpos, qvel + basis[i])[3] - momentum for i in range(3)]
         return np.stack(columns, axis=1)
 
@@ -127,7 +127,7 @@ def ballistic_start_velocities(model: mujoco.MjModel, qpos: np.ndarray, qvel: np
         for j, k in enumerate(range(a, b)):
             d_omega = inverse[j] @ (target - measured[k][3])
             velocity = slope - np.array([0.0, 0.0, GRAVITY * t[j]])
-            basis = kin.rigid_basis(qpos[k], qvel[k], com[k])
+            basis = kin.rigid_basis(qpos[k], com[k])
             out[k] = qvel[k] + d_omega @ basis[:3] + (velocity - measured[k][2]) @ basis[3:]
             largest = max(largest, float(np.linalg.norm(d_omega)))
         norms = [float(np.linalg.norm(measured[k][3])) for k in range(a, b)]
