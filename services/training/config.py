@@ -168,6 +168,9 @@ def _upgrade(d: dict) -> dict:
     if env and "target_lead_s" not in env:  # written before the residual base led the reference step
         env["target_lead_s"] = 0.0
         d["env"] = env
+    if env and "flight_starts" not in env:  # written before flights' start states were made ballistic
+        env["flight_starts"] = "reference"
+        d["env"] = env
     if not env or "residual_action_scale" in env:
         return d
     from actors.character.humanoid3d import HUMANOID3D  # the only character of those runs

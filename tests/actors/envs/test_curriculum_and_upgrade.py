@@ -68,6 +68,13 @@ def test_an_old_run_directory_gets_the_settings_it_was_trained_with(walk_clip):
     assert config.curriculum_start_s == 0.0 and config.asi_initial_std_scale == 1.0
 
 
+def test_a_run_from_before_ballistic_flight_starts_keeps_the_references_velocities():
+    d = TrainConfig().to_dict()
+    assert d["env"]["flight_starts"] == "ballistic"
+    del d["env"]["flight_starts"]
+    assert TrainConfig.from_dict(d).env.flight_starts == "reference"
+
+
 def test_a_config_from_another_version_names_the_field():
     from learner.errors import ConfigError
 
