@@ -168,6 +168,9 @@ def _upgrade(d: dict) -> dict:
     if env and "target_lead_s" not in env:  # written before the residual base led the reference step
         env["target_lead_s"] = 0.0
         d["env"] = env
+    if env and "sfv" not in env and "tracking_termination_m" not in env:  # written before the termination existed
+        env["tracking_termination_m"] = 0.0
+        d["env"] = env
     if env and "flight_starts" not in env:  # written before flights' start states were made ballistic
         env["flight_starts"] = "reference"
         d["env"] = env

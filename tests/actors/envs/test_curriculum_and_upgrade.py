@@ -75,6 +75,13 @@ def test_a_run_from_before_ballistic_flight_starts_keeps_the_references_velociti
     assert TrainConfig.from_dict(d).env.flight_starts == "reference"
 
 
+def test_a_run_from_before_the_tracking_termination_keeps_training_without_it():
+    d = TrainConfig().to_dict()
+    assert d["env"]["sfv"]["tracking_termination_m"] == 1.0
+    del d["env"]["sfv"]
+    assert TrainConfig.from_dict(d).env.sfv.tracking_termination_m == 0.0
+
+
 def test_a_config_from_another_version_names_the_field():
     from learner.errors import ConfigError
 

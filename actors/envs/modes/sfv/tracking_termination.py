@@ -11,8 +11,12 @@ limbs), and ending there turns "drifting away" into the same zero-return signal 
 Measured here as the largest of: each end effector's distance to the reference's (both as
 DeepMimic's reward sees them, offsets from the root in the heading frame with their height
 above the ground) and the root's distance to the reference root (world, after the per-cycle
-root sync). `EnvConfig.sfv.tracking_termination_m` is the threshold; 0 turns it off. Evaluation
-never uses it: strict falls are what `sfv eval` judges.
+root sync). `EnvConfig.sfv.tracking_termination_m` is the threshold, 1.0 m by default (MimicKit's
+distance; 0.5 m ended the roll's episodes after 23 control steps and learned worse), 0 turns it off.
+Evaluation never uses it: strict falls are what `sfv eval` judges. At 1.0 m against off (`sfv eval`,
+two workers x 32 envs): walk .981 at 2 M against .969, run .906 with no falls at 3 M against .855
+at 7 M (with ballistic flight starts), getup_faceup .934 / getup_facedown .944 at 2 M against
+.865 / .887 at 1 M, crawl .941 against .935, roll .706 against .382 at 5 M.
 """
 from __future__ import annotations
 
