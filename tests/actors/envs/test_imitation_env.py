@@ -238,15 +238,24 @@ def head_or_torso_touches_floor(env):
     return bool(np.isin(geoms, env.humanoid.fall_geom_ids).any(axis=1).any())
 
 
-def test_falls_on_head_end_the_episode(env):
-    env.reset(seed=0, options={"phase": 0.0, "state": upside_down_state(env)})
+def _steps_to_termination(env, state):
+    env.reset(seed=0, options={"phase": 0.0, "state": state})
     for step in range(1, 31):
         _, reward, terminated, truncated, _ = env.step(np.zeros(env.action_space.shape))
         if terminated:
             break
+    return step, reward, terminated, truncated
+
+
+def test_falls_on_head_end_the_episode(env, walk, humanoid):
+    contact_only = ImitationEnv(walk, EnvConfig(horizon_s=2.0, sfv=SfvConfig(tracking_termination_m=0.0)), humanoid)
+    step, reward, terminated, truncated = _steps_to_termination(contact_only, upside_down_state(contact_only))
     assert terminated and not truncated and step < 30
-    assert head_or_torso_touches_floor(env)
+    assert head_or_torso_touches_floor(contact_only)
     assert reward == 0.0  # the step that ends in a fall earns nothing (DeepMimic)
+    # The default tracking termination (1.0 m) ends the same start no later, also as a fall.
+    deviated, reward, terminated, _ = _steps_to_termination(env, upside_down_state(env))
+    assert terminated and deviated <= step and reward == 0.0
 
 
 def test_without_early_termination_the_fall_goes_on(walk, humanoid):
