@@ -42,7 +42,7 @@ from actors.motion.loop_closure import close_loop
 from actors.motion.reference_motion import ReferenceMotion
 from actors.envs.modes import MODE_NAMES, mode_class
 from actors.envs.modes.movingcam.tracking import MovingcamConfig
-from actors.motion.reference_track import ReferenceTrack
+from actors.motion.reference_track import FLIGHT_STARTS, ReferenceTrack
 from actors.envs.modes.sfv.config import SfvConfig
 from actors.envs.scene_reward import SCENE_CHARACTERS, SCENE_LIMB_LINKS, SceneReward, SceneRewardConfig
 from actors.character.state import StateLayout
@@ -60,7 +60,7 @@ class EnvConfig:
     ground_contact_links: tuple[str, ...] | None = field(default=None, metadata={"help": "links besides the feet that may touch the ground without a fall; None: the clip's DeepMimic setting (cartwheel: hands; crawl: limbs; roll, getups: all)"})
     action_parameterisation: str = field(default="exp_map", metadata={"choices": ("exp_map", "axis_angle"), "help": "exp_map (28-D, DeepMimic's current code and MimicKit) or axis_angle (36-D, SFV's, with a dead point at zero). Walk, ASI, absolute targets, eval NR at 1 M samples: exp_map .23, axis_angle .07 (every episode falls in both)"})
     loop_closure_s: float = field(default=0.0, metadata={"help": "close a looped clip's wrap (its last pose made its first, the mismatch blended over this many seconds at each end; actors/motion/loop_closure.py); `sfv motion check` reports the mismatch: 1.01 rad on the spinkick, .47 on the cartwheel. Pure PD tracking through the wrap, open / closed at 0.3 s, steps survived: walk 37 / 43, cartwheel 47 / 41, spinkick 35 / 31: off until trainings say; 0: the clip as recorded"})
-    flight_starts: str = field(default="ballistic", metadata={"choices": ("ballistic", "reference"), "help": "velocities of start states in a clip's flight: ballistic (one angular momentum per flight, the centre of mass on a parabola under g; actors/motion/ballistic_flight.py) or reference (the clip's kinematic velocities, DeepMimic's: the backflip's flight carries 25 -> 66 -> 24 kg m^2/s on our body, and 5 of its 6 sfv eval falls at 14 M started there; the same policy 3 M samples on with ballistic starts: sfv eval .694 / 6 falls -> .759 / 4)"})
+    flight_starts: str = field(default="ballistic", metadata={"choices": FLIGHT_STARTS, "help": "velocities of start states in a clip's flight: ballistic (one angular momentum per flight, the centre of mass on a parabola under g; actors/motion/ballistic_flight.py) or reference (the clip's kinematic velocities, DeepMimic's: the backflip's flight carries 25 -> 66 -> 24 kg m^2/s on our body, and 5 of its 6 sfv eval falls at 14 M started there; the same policy 3 M samples on with ballistic starts: sfv eval .694 / 6 falls -> .759 / 4)"})
     target_lead_s: float = field(default=1.0 / 15.0, metadata={"help": "residual actions add to the reference pose this long after the step they act towards (rounded to control steps), not to that step's pose: PD control lags its target by about kd/kp = 0.1 s, so the reference one step ahead leaves fast motions trailing by up to the whole residual range. Zero actions from RSI, mean end-effector reward term over the first 15 steps at a lead of 0 / 1 / 2 / 3 steps: dance_a .26/.38/.43/.30, backflip .28/.38/.43/.37, walk .56/.63/.65/.65. 0: the step's own pose (before this setting)"})
     residual_action_scale: float | None = field(default=0.5, metadata={"help": "PD target = reference target of the step acted towards + this (rad) x action (dynamic-camera paper eq. 1); None: absolute targets. Walk, ASI, exp_map, eval NR at 1 M samples: .91 with no falls residual, .23 (all episodes falling) absolute"})
     sync_root_per_cycle: bool = field(default=True, metadata={"help": "move the reference's horizontal root to the character's at each new cycle of a looped clip (DeepMimic sync_char_root_pos)"})
@@ -95,6 +95,8 @@ class EnvConfig:
         unknown = [n for n in self.ground_contact_links or () if n not in character.link_names]
         if unknown:
             raise ValueError(f"ground contact links {unknown} are not links of the {self.character} ({', '.join(character.link_names)})")
+        if self.flight_starts not in FLIGHT_STARTS:
+            raise ValueError(f"flight_starts must be one of {', '.join(FLIGHT_STARTS)}, got {self.flight_starts!r}")
         if not self.loop_closure_s >= 0:
             raise ValueError(f"loop_closure_s must be >= 0, got {self.loop_closure_s}")
         if not self.target_lead_s >= 0:

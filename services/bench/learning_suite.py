@@ -83,7 +83,6 @@ class LearningConfig:
     samples: int = field(default=DEFAULT_SAMPLES, metadata={"help": "sample budget of every run"})
     workers: int = field(default=2, metadata={"help": "rollout workers per run"})
     envs_per_worker: int = field(default=32, metadata={"help": "envs per worker"})
-    serial: bool = field(default=False, metadata={"help": "workers in this process, no Ray"})
     runner: str = field(default="ray", metadata={"help": "how the workers run: ray, in_process (--serial) or processes (one OS process each, no Ray: 3,900 against Ray's 2,650 samples/s for two trainings sharing 2 cores)"})
     device: str = field(default="cpu", metadata={"help": "torch device of the learner"})
     torch_threads: int = field(default=0, metadata={"help": "learner's torch threads (0: every core; 1 when two grids share a 2-core machine)"})
@@ -95,6 +94,11 @@ class LearningConfig:
     physics_hz: float | None = field(default=None, metadata={"help": "physics rate (None: the env's default)"})
     threshold: float = field(default=THRESHOLD, metadata={"help": "normalised return whose first crossing is reported"})
     progress: bool = field(default=False, metadata={"help": "the trainer's progress bar on stderr"})
+
+    @property
+    def serial(self) -> bool:
+        """Workers in this process (`--serial`, the same as `--runner in_process`)."""
+        return self.runner == "in_process"
 
     def resolved_eval_every(self) -> int:
         return max(1, self.samples // EVAL_POINTS) if self.eval_every is None else self.eval_every
@@ -190,7 +194,7 @@ def config_from_args(args) -> LearningConfig:
         workers=_count("workers", args.workers) if args.workers is not None else defaults.workers,
         envs_per_worker=_count("envs-per-worker", defaults.envs_per_worker if getattr(args, "envs_per_worker", None) is None
                                else args.envs_per_worker),
-        serial=bool(args.serial), runner=_runner(args), device=args.device or defaults.device,
+        runner=_runner(args), device=args.device or defaults.device,
         torch_threads=_count("torch-threads", args.torch_threads, minimum=0) if args.torch_threads is not None else defaults.torch_threads,
         batch_size=_count("batch-size", args.batch_size) if args.batch_size is not None else None,
         minibatch_size=_count("minibatch-size", args.minibatch_size) if args.minibatch_size is not None else None,
@@ -236,7 +240,7 @@ def train_config(config: LearningConfig, cell: Cell):
 
     train = TrainConfig(motion=cell.skill, out=str(run_dir_of(config, cell)), workers=config.workers,
                         envs_per_worker=config.envs_per_worker, init=cell.init, samples=config.samples, seed=cell.seed,
-                        runner="in_process" if config.serial else config.runner, device=config.device, eval_every=config.resolved_eval_every(),
+                        runner=config.runner, device=config.device, eval_every=config.resolved_eval_every(),
                         torch_threads=config.torch_threads)
     train.ppo = dataclasses.replace(train.ppo, seed=cell.seed)
     if config.eval_episodes is not None:
@@ -364,7 +368,7 @@ def run_grid(config: LearningConfig, grid: list[Cell], doc: dict, command: str |
     info = machine()
     doc.update(format=FORMAT, command=command, updated=now, machine=info, threshold=config.threshold)
     started_ray = False
-    if not config.serial and config.runner == "ray":
+    if config.runner == "ray":
         started_ray = _start_ray(config.workers)
     failures = 0
     try:
