@@ -52,6 +52,8 @@ def _check_args(args) -> None:
         raise SfvError(f"export: --episodes must be positive, got {args.episodes}")
     if args.seconds is not None and not args.seconds > 0:
         raise SfvError(f"export: --seconds must be positive, got {args.seconds}")
+    if args.phase is not None and not 0.0 <= args.phase <= 1.0:
+        raise SfvError(f"export: --phase must be in [0, 1], got {args.phase}")
     for flag, suffix in (("motion", ".npz"), ("bvh", ".bvh")):
         value = getattr(args, flag)
         if value and Path(value).suffix.lower() != suffix:
@@ -78,7 +80,7 @@ def export_rollouts(args) -> list[dict]:
     for episode in range(args.episodes):
         name = f"{env.motion.name} rollout of {source.description} (seed {args.seed + episode})"
         with threadpool_limits(limits=1):  # batch-1 inference: BLAS threads only slow it down
-            motion, progress = record_episode(source.policy, env, args.seed + episode, args.init, args.seconds, name)
+            motion, progress = record_episode(source.policy, env, args.seed + episode, args.init, args.seconds, name, args.phase)
         entry = {"episode": episode + 1, "frames": motion.num_frames, "seconds": motion.duration, "fell": progress.terminated,
                  "normalized_return": progress.normalized_return}
         if args.motion:

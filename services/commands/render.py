@@ -44,7 +44,7 @@ def build_config(args):
     from actors.envs.pushes import PushConfig
 
     return RenderConfig(
-        width=args.width, height=args.height, episodes=args.episodes, seconds=args.seconds, init=args.init,
+        width=args.width, height=args.height, episodes=args.episodes, seconds=args.seconds, init=args.init, phase=args.phase,
         seed=args.seed, ghost=not args.no_ghost, ghost_offset=(0.0, args.ghost_offset, 0.0), shadows=args.shadows, antialias=args.antialias,
         pushes=PushConfig(count=args.push, impulse=args.push_impulse, duration_s=args.push_duration),
     )

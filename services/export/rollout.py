@@ -3,7 +3,7 @@ pose space of the env's character: a robot's is written as a robot motion file, 
 
 `episode_steps` is a generator: it yields once after reset and once after every control
 step, so a caller can look at (render, record) or act on (push) `env.data` in between.
-Episode k resets with seed `seed + k` and the given init (FSI or RSI) and ends where the env's
+Episode k resets with seed `seed + k` and the given init (FSI or RSI, or a fixed start phase) and ends where the env's
 own termination ends it. `sfv eval` scores differently on purpose: episodes at evenly spaced
 phases and the strict fall rule whatever the training's termination (`services/training/evaluation.py`).
 """
@@ -29,6 +29,15 @@ class StepProgress:
     done: bool
 
 
+def start_options(init: str, phase: float | None) -> dict:
+    """The reset options of an episode started by `init`, or at `phase` of the clip when given."""
+    if phase is None:
+        return {"init": init}
+    if not 0.0 <= phase <= 1.0:
+        raise ValueError(f"phase must be in [0, 1], got {phase}")
+    return {"init": "rsi", "phase": float(phase)}
+
+
 def episode_limit(env: ImitationEnv, seconds: float | None) -> int:
     limit = env.max_episode_steps
     if seconds is not None:
@@ -36,8 +45,10 @@ def episode_limit(env: ImitationEnv, seconds: float | None) -> int:
     return limit
 
 
-def episode_steps(policy, env: ImitationEnv, seed: int, init: str, seconds: float | None = None) -> Iterator[StepProgress]:
-    obs, _ = env.reset(seed=seed, options={"init": init})
+def episode_steps(policy, env: ImitationEnv, seed: int, init: str, seconds: float | None = None,
+                  phase: float | None = None) -> Iterator[StepProgress]:
+    """`phase` (0-1) starts the episode at that phase of the clip whatever `init` says."""
+    obs, _ = env.reset(seed=seed, options=start_options(init, phase))
     obs_row = np.empty((1, env.observation_space.shape[0]), np.float32)
     obs_row[0] = obs
     limit = episode_limit(env, seconds)
@@ -58,11 +69,12 @@ def episode_steps(policy, env: ImitationEnv, seed: int, init: str, seconds: floa
             return
 
 
-def record_episode(policy, env: ImitationEnv, seed: int, init: str, seconds: float | None, name: str) -> tuple[ReferenceMotion, StepProgress]:
+def record_episode(policy, env: ImitationEnv, seed: int, init: str, seconds: float | None, name: str,
+                   phase: float | None = None) -> tuple[ReferenceMotion, StepProgress]:
     """The simulated character's root and joint rotations at every control step (reset included)."""
     root_pos = root_rot = joint_rot = None
     count = 0
-    for progress in episode_steps(policy, env, seed, init, seconds):
+    for progress in episode_steps(policy, env, seed, init, seconds, phase):
         if root_pos is None:  # after reset, when the episode's length is known
             rows = progress.max_steps + 1
             root_pos, root_rot, joint_rot = np.empty((rows, 3)), np.empty((rows, 4)), np.empty((rows, env.layout.num_joints, 4))

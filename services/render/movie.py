@@ -34,6 +34,7 @@ class RenderConfig:
     episodes: int = field(default=1, metadata={"help": "episodes filmed one after another"})
     seconds: float | None = field(default=None, metadata={"help": "cap on each episode's length (default: the env's horizon)"})
     init: str = field(default="fsi", metadata={"help": "episode start: fsi (clip start) or rsi (random frame)"})
+    phase: float | None = field(default=None, metadata={"help": "start every episode at this phase (0-1) of the clip instead of by init"})
     seed: int = field(default=0, metadata={"help": "episode k resets with seed + k; pushes use it too"})
     ghost: bool = field(default=True, metadata={"help": "draw the reference motion as a translucent ghost"})
     ghost_offset: tuple = field(default=(0.0, 1.0, 0.0), metadata={"help": "world offset (m) of the ghost from the reference pose; +y puts it beside a character walking along +x"})
@@ -53,6 +54,8 @@ class RenderConfig:
             raise SfvError(f"render: --seconds must be positive, got {self.seconds}")
         if self.init not in ("fsi", "rsi"):
             raise SfvError(f"render: --init must be fsi or rsi, got {self.init!r}")
+        if self.phase is not None and not 0.0 <= self.phase <= 1.0:
+            raise SfvError(f"render: --phase must be in [0, 1], got {self.phase}")
         if self.pushes.count < 0 or not self.pushes.impulse >= 0 or not self.pushes.duration_s > 0:
             raise SfvError("render: --push must be >= 0, --push-impulse >= 0 and --push-duration > 0")
 
@@ -130,7 +133,7 @@ def _film_episode(policy, env: ImitationEnv, scene: _Scene, video: AtomicVideoWr
     pushes = None
     push_force, arrow_left = None, 0
     started = time.perf_counter()
-    for progress in episode_steps(policy, env, seed, config.init, config.seconds):
+    for progress in episode_steps(policy, env, seed, config.init, config.seconds, config.phase):
         if progress.step == 0 and config.pushes.count:
             pushes = PushSchedule(config.pushes, hz, episode_limit(env, config.seconds), np.random.default_rng(seed))
         lines = [

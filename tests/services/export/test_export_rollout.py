@@ -55,6 +55,18 @@ def test_first_frame_is_the_reference_the_episode_started_on(run_dir, exported):
     assert not np.allclose(motion.root_pos[-1], motion.root_pos[0])  # the character moved
 
 
+@pytest.mark.parametrize("phase", [0.0, 0.55])
+def test_a_start_phase_starts_every_episode_on_that_reference_frame(run_dir, tmp_path, phase):
+    assert main(["export", str(run_dir), "--motion", str(tmp_path / "at.npz"), "--seconds", "0.2", "--episodes", "2",
+                 "--phase", str(phase), "--seed", "3"]) == 0
+    env = load_policy_source(run_dir).make_env()
+    start = env.track.qpos[env.track.start_index(phase)]
+    for episode in ("01", "02"):  # both seeds: the phase, not the seed, decides the start
+        motion = load_motion(str(tmp_path / f"at_ep{episode}.npz"))
+        np.testing.assert_allclose(motion.root_pos[0], start[0:3], atol=1e-9)
+    assert (phase == 0.0) == np.allclose(start[0:3], env.track.qpos[0, 0:3])
+
+
 def test_bvh_and_npz_hold_the_same_motion(exported):
     for episode in ("01", "02"):
         npz = load_motion(str(exported / f"roll_ep{episode}.npz"))
@@ -80,6 +92,7 @@ def test_a_single_episode_writes_the_names_given(run_dir, tmp_path, capsys):
         (["--bvh", "{tmp}/x.npz"], "--bvh must name a .bvh file"),
         (["--bvh", "{tmp}/x.bvh", "--episodes", "0"], "--episodes must be positive"),
         (["--bvh", "{tmp}/x.bvh", "--seconds", "-1"], "--seconds must be positive"),
+        (["--bvh", "{tmp}/x.bvh", "--phase", "-0.1"], "--phase must be in [0, 1]"),
     ],
 )
 def test_bad_arguments_are_one_line_errors(run_dir, tmp_path, capsys, argv, message):

@@ -144,6 +144,7 @@ def test_a_failing_render_leaves_nothing(source, tmp_path):
         (["--out", "{tmp}/v.mp4", "--width", "101"], "even numbers"),
         (["--out", "{tmp}/v.mp4", "--episodes", "0"], "--episodes must be positive"),
         (["--out", "{tmp}/nowhere/v.mp4"], "does not exist"),
+        (["--out", "{tmp}/v.mp4", "--phase", "1.5"], "--phase must be in [0, 1]"),
     ],
 )
 def test_bad_render_arguments_are_one_line_errors(run_dir, tmp_path, capsys, argv, message):
