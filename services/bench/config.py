@@ -27,6 +27,7 @@ class BenchConfig:
     peer_rates: tuple[float, ...] = field(default=(240.0, 1200.0), metadata={"help": "physics rates of the peer comparison: pybullet DeepMimic's default 240 Hz and the paper's 1.2 kHz"})
     peer_python: str | None = field(default=None, metadata={"help": "interpreter with pybullet_envs + gym 0.26.2 for the peer process (default: this one)"})
     system_workers: tuple[int, ...] = field(default=(1, 2), metadata={"help": "worker counts of the end-to-end training runs (real Ray)"})
+    system_runners: tuple[str, ...] = field(default=("ray", "processes"), metadata={"help": "rollout runners of the end-to-end training runs: ray (Ray actors, the cluster's) and processes (spawned processes over pipes, no Ray: the fastest on one small machine)"})
     system_iterations: int = field(default=5, metadata={"help": "PPO iterations (4096 samples each) per end-to-end training run"})
     reconstruction_repeats: int = field(default=3, metadata={"help": "timed reconstructions of the pose track (each takes tens of seconds on CPU; no warm-up)"})
     pose_video: str | None = field(default=None, metadata={"help": "video for the pose suite (default ../shared's pose2sim cam01.mp4)"})

@@ -28,6 +28,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--physics-hz", type=float, default=defaults.physics_hz, help="physics rate of the env/worker/system suites")
     p.add_argument("--envs-per-worker", type=int, default=defaults.envs_per_worker, help="M, envs of the worker in the env and system suites")
     p.add_argument("--system-iterations", type=int, default=None, help=f"PPO iterations per training run (default {defaults.system_iterations}, quick 2)")
+    p.add_argument("--system-runners", default=None, metavar="R[,R]",
+                   help=f"rollout runners of the system suite's training runs (default {','.join(defaults.system_runners)})")
     p.add_argument("--peer-python", default=None, help="interpreter that has pybullet_envs + gym 0.26.2 (default: this one)")
     p.add_argument("--pose-video", default=None, help="video of the pose suite (default ../shared pose2sim cam01.mp4)")
     p.add_argument("--pose-models", default=None, help="BlazePose model directory (default $SFV_POSE_MODELS, the cache, ../shared)")
@@ -51,6 +53,8 @@ def build_config(args):
     for name in ("repeats", "seconds", "system_iterations"):
         if getattr(args, name) is not None:
             overrides[name] = getattr(args, name)
+    if args.system_runners is not None:
+        overrides["system_runners"] = _system_runners(args.system_runners)
     config = BenchConfig.quick_defaults(**overrides) if args.quick else BenchConfig(**overrides)
     for name in ("repeats", "seconds", "system_iterations", "envs_per_worker", "physics_hz"):
         if not getattr(config, name) > 0:
@@ -60,6 +64,16 @@ def build_config(args):
     except ValueError as exc:
         raise SfvError(f"--physics-hz: {exc}") from None
     return config
+
+
+def _system_runners(text: str) -> tuple[str, ...]:
+    from services.training.config import RUNNER_NAMES
+
+    runners = tuple(r.strip() for r in text.split(",") if r.strip())
+    bad = [r for r in runners if r not in RUNNER_NAMES]
+    if bad or not runners:
+        raise SfvError(f"--system-runners {text!r}: choose from {', '.join(RUNNER_NAMES)}, comma-separated")
+    return runners
 
 
 def run_bench(args) -> int:
@@ -99,7 +113,7 @@ def command_line(args) -> str:
     parts = ["sfv", "bench", "--suite", args.suite]
     if args.quick:
         parts.append("--quick")
-    for name in ("repeats", "seconds", "physics_hz", "envs_per_worker", "system_iterations", "peer_python",
+    for name in ("repeats", "seconds", "physics_hz", "envs_per_worker", "system_iterations", "system_runners", "peer_python",
                  "pose_video", "pose_models", "seed"):
         value = getattr(args, name)
         default = getattr(defaults, name) if name in ("physics_hz", "envs_per_worker", "seed") else None

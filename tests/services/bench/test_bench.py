@@ -80,3 +80,27 @@ def test_bad_out_path_exits_2(tmp_path, capsys, out_name, message):
 def test_physics_rate_must_fit_the_control_rate(tmp_path, capsys):
     assert main(["bench", "--suite", "env", "--physics-hz", "250", "--out", str(tmp_path / "r.json")]) == 2
     assert "sfv: --physics-hz: physics_hz (250.0) must be a whole multiple of control_hz (30.0)" in capsys.readouterr().err
+
+
+def test_system_suite_on_the_processes_runner_reports_each_worker_count(tmp_path):
+    """The end-to-end training loop without Ray: spawned worker processes, the real learner."""
+    out = tmp_path / "system.json"
+    assert main(["bench", "--suite", "system", "--quick", "--quiet", "--repeats", "1", "--system-runners", "processes",
+                 "--out", str(out)]) == 0
+    suite = json.loads(out.read_text())["suites"]["system"]
+    assert suite["settings"]["system_runners"] == ["processes"]
+    metrics, ratios = suite["metrics"], suite["ratios"]
+    assert set(ratios) == {"system_processes_1w_over_raw", "system_processes_2w_over_raw"}
+    for workers in (1, 2):
+        stem = f"system_processes_{workers}w"
+        overall, sampling = metrics[f"{stem}_samples_per_s"]["median"], metrics[f"{stem}_sampling_samples_per_s"]["median"]
+        assert 0 < overall < sampling  # the loop's wall time includes the updates that sampling's does not
+        assert ratios[f"{stem}_over_raw"]["value"] == pytest.approx(overall / (workers * metrics["raw_steps_per_s"]["median"]))
+    assert "system_2w_samples_per_s" not in metrics  # no Ray run was asked for
+
+
+def test_an_unknown_system_runner_is_a_one_line_error(tmp_path, capsys):
+    assert main(["bench", "--suite", "system", "--system-runners", "ray,threads", "--out", str(tmp_path / "s.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--system-runners 'ray,threads'" in err and "\n" not in err
+    assert list(tmp_path.iterdir()) == []
