@@ -76,3 +76,31 @@ def test_hovering_feet_are_not_a_flight():
     assert flight_stretches(airborne, 0.9 + 0.0 * t, dt) == []  # off the floor, not falling
     assert flight_stretches(airborne, 1.0 + 2.0 * t - 0.5 * GRAVITY * t ** 2, dt) == [(0, 10)]
     assert flight_stretches(np.array([0, 1, 1, 0] * 3, bool), np.zeros(12), dt) == []  # too short
+
+
+def test_a_flight_behind_a_hovering_push_off_is_found_and_the_push_off_is_not():
+    """A stretch that touches nothing from the crouch on, as the jump's reference: the centre of mass
+    sinks 15 cm, rises under a push (+8 m/s^2, a ground force the hovering reference does not show),
+    then flies under g."""
+    dt = 1 / 30
+    crouch = 0.85 - 0.075 * (1 - np.cos(np.pi * np.arange(16) / 15))
+    push = np.arange(1, 11) * dt
+    up = crouch[-1] + 4.0 * push ** 2
+    fly = np.arange(1, 21) * dt
+    z = np.concatenate([crouch, up, up[-1] + 8.0 * push[-1] * fly - 0.5 * GRAVITY * fly ** 2])
+    airborne = np.ones(len(z), bool)
+    assert -GRAVITY / 2 < 2 * np.polyfit(np.arange(len(z)) * dt, z, 2)[0]  # the whole stretch is no flight
+    ((a, b),) = flight_stretches(airborne, z, dt)
+    assert b == len(z) and 24 <= a <= 27  # the flight, from about the last push row (25)
+    assert flight_stretches(airborne[:26], z[:26], dt) == []  # crouch and push alone: none
+    # A window shorter than 0.2 s that happens to fall at g is noise, not a flight.
+    wiggle = np.full(12, 0.8)
+    wiggle[4:9] = 0.8 + 0.5 * GRAVITY * (np.arange(5) * dt) * (4 * dt - np.arange(5) * dt)
+    assert flight_stretches(np.ones(12, bool), wiggle, dt) == []
+
+
+def test_the_jump_and_dance_b_flights_are_found():
+    for clip, flight in (("deepmimic:jump", (22, 37)), ("deepmimic:dance_b", (12, 18))):
+        env = ImitationEnv(load_motion(clip), EnvConfig())
+        rows = [f.rows for f in env.track.flights.flights]
+        assert flight in rows, (clip, rows)
