@@ -13,8 +13,8 @@ falls -> .759 with 4, no fall left that starts mid-flight
 Each flight (rows whose reference pose touches nothing, at least `MIN_FLIGHT_ROWS` long, whose
 centre of mass falls at more than half of g: a stretch that does not is feet hovering over the
 floor, not a flight; or, inside such a stretch, the longest window of at least 0.2 s whose centre
-of mass follows g within 10 % (and a parabola within 0.5 cm): the jump's flight behind its hovering push-off, `flight_stretches`)
-gets, for start states only:
+of mass follows g within 10 % and a parabola within 0.5 cm: the jump's flight behind its hovering
+push-off, `flight_stretches`) gets, for start states only:
 - one angular momentum L* = (sum_k I_k^-1)^-1 sum_k I_k^-1 L_k, with I_k the whole body's inertia
   about its centre of mass in row k's pose: the constant momentum whose rotation rate, summed over
   the flight's poses, turns the body as far as the reference's does (a least-squares fit of the
@@ -38,7 +38,7 @@ import numpy as np
 
 MIN_FLIGHT_ROWS = 3
 # A flight inside a longer airborne stretch: at least 0.2 s (6 control steps) whose centre of mass
-# follows g within 10 %. Shorter windows fit noise: over the 15 DeepMimic clips, 3-5-row windows
+# follows g within 10 % and fits a parabola within FLIGHT_FIT_M. Shorter windows fit noise: over the 15 DeepMimic clips, 3-5-row windows
 # within 10 % of g turned up in the crawl and the roll, which never leave the floor.
 MIN_FLIGHT_SECONDS = 0.2
 FLIGHT_G_TOLERANCE = 0.1
@@ -106,7 +106,8 @@ def flight_stretches(airborne: np.ndarray, com_z: np.ndarray, dt: float) -> list
     (rows 11-37: the feet 0-3 cm above the floor while the centre of mass drops 13 cm and rises
     again, then 0.5 s in the air), so the whole stretch fits an upward acceleration of -0.9 m/s^2.
     Its flight is the longest window of at least MIN_FLIGHT_SECONDS whose centre of mass follows g
-    within FLIGHT_G_TOLERANCE (the jump: rows 21-37, -9.0 m/s^2); the rest of the stretch keeps
+    within FLIGHT_G_TOLERANCE and a parabola within FLIGHT_FIT_M (the jump: rows 22-37, -9.4 m/s^2,
+    0.4 cm); the rest of the stretch keeps
     the reference's velocities. Leftovers on either side are searched the same way."""
     edges = np.flatnonzero(np.diff(np.concatenate(([0], airborne.astype(int), [0]))))
     out: list[tuple[int, int]] = []
