@@ -4,7 +4,8 @@
               [--inits asi,rsi,fsi] [--seeds 0,1] [--samples 2M] [--workers 2] [--envs-per-worker 32]
               [--serial | --runner processes] [--eval-every 200k] [--eval-episodes 8] [--batch-size 4096] [--minibatch-size 256] [--final-episodes 32]
 
-A grid of skills x inits x seeds at one sample budget. Every cell is one ordinary training
+A grid of skills x inits x seeds at one sample budget, or a budget per skill (`--skills
+backflip@20M,walk@1M`: a skill's `@BUDGET` overrides `--samples` for its runs). Every cell is one ordinary training
 run (`services.training.driver.Trainer`, the code `sfv train` runs) into OUT_DIR/runs/<clip>_<init>_s<seed>/;
 when it has finished, the run's newest checkpoint is evaluated with `services.training.evaluation.evaluate_run`
 (deterministic policy, `--final-episodes` episodes) and its learning curve is read back from
@@ -18,6 +19,11 @@ this budget (or more), continues a run that has checkpoints but no complete reco
 newest checkpoint (`Trainer(config, resume=True)`), and starts the rest afresh. A larger
 `--samples` continues complete runs to the new budget. A run directory trained with other
 settings (motion, init, seed, batch sizes, physics rate) is an error, not silently mixed.
+A run trained by `sfv train` with the suite's settings (the defaults) can be moved into
+OUT_DIR/runs/<clip>_<init>_s<seed>/ to be recorded without training again: the suite continues it
+to the cell's budget and evaluates it, its training time read from its own metrics
+(`services.bench.run_history`); a run whose settings differ from the cell's in anything but how it
+was operated (runner, addresses, evaluation cadence) is refused, naming the settings.
 
 learning.json (format "sfv-learning-1"):
     {"format", "command", "created", "updated", "machine", "threshold",
@@ -27,11 +33,12 @@ learning.json (format "sfv-learning-1"):
          "config": {motion, init, seed, samples (budget), workers, envs_per_worker, serial, device,
                     batch_size, minibatch_size, update_epochs, policy_lr, physics_hz, control_hz,
                     eval_every, eval_episodes, final_episodes},
-         "samples", "wall_s" (training, all invocations), "eval_s", "samples_per_s" (samples / wall_s),
+         "samples", "wall_s" (training, all invocations; from the run's metrics when it came without a record), "eval_s", "samples_per_s" (samples / wall_s),
          "resumes" (times continued from a checkpoint), "finished", "machine",
          "eval": {every key evaluate_run returns: normalized_return, fall_rate, episode_length, ...},
-         "curve": {"train": {"samples", "normalized_return", "fall_rate", "episode_length"},
-                   "eval": {"samples", "eval/normalized_return", ... every eval/ key}},
+         "curve": {"train": {"samples", "normalized_return", "fall_rate", "episode_length", "wall_s"},
+                   "eval": {"samples", "wall_s", "eval/normalized_return", ... every eval/ key}}
+                  (wall_s: training seconds up to the row, from the metrics' time stamps),
          "samples_to_threshold": first samples at which NR >= threshold, or null;
          "threshold_source": "eval" (eval rows + final eval) or "train_smoothed" (EMA 0.8 of the
                              training NR + final eval), used where the run has no eval rows}}}
@@ -64,7 +71,8 @@ DEFAULT_SKILLS = ("deepmimic:walk", "deepmimic:run", "deepmimic:backflip", "deep
 INITS = INIT_MODES  # every initial-state strategy
 THRESHOLD = 0.8
 DEFAULT_SAMPLES = 2_000_000
-EVAL_POINTS = 10  # default --eval-every: the budget / this
+EVAL_POINTS = 10  # default --eval-every: the budget / this, at most EVAL_EVERY_MAX
+EVAL_EVERY_MAX = 500_000  # sfv train's cadence: best.pt is chosen among these evaluations
 SMOOTHING = 0.8  # EMA weight of training curves, as services.training.curves draws them
 # Settings that make a run what it is; a run directory trained with others is not resumed into.
 IDENTITY = {"motion": ("motion",), "init": ("init",), "seed": ("seed",), "batch_size": ("ppo", "batch_size"),
@@ -100,8 +108,10 @@ class LearningConfig:
         """Workers in this process (`--serial`, the same as `--runner in_process`)."""
         return self.runner == "in_process"
 
-    def resolved_eval_every(self) -> int:
-        return max(1, self.samples // EVAL_POINTS) if self.eval_every is None else self.eval_every
+    def resolved_eval_every(self, samples: int | None = None) -> int:
+        """--eval-every, or the run's budget (`samples`, default --samples) / EVAL_POINTS, at most EVAL_EVERY_MAX."""
+        budget = self.samples if samples is None else samples
+        return min(EVAL_EVERY_MAX, max(1, budget // EVAL_POINTS)) if self.eval_every is None else self.eval_every
 
 
 @dataclass(frozen=True)
@@ -110,6 +120,7 @@ class Cell:
     clip: str  # short name for directories and labels
     init: str
     seed: int
+    samples: int = DEFAULT_SAMPLES  # this run's budget: --samples, or the skill's @BUDGET
 
     @property
     def name(self) -> str:
@@ -121,7 +132,7 @@ def add_arguments(parser) -> None:
     """The learning suite's own flags (`sfv bench` also has --envs-per-worker, --physics-hz, --seed, --quiet)."""
     g = parser.add_argument_group("learning suite (--suite learning)")
     g.add_argument("--out-dir", default=None, help="directory of learning.json, learning.png and runs/ (required for --suite learning)")
-    g.add_argument("--skills", default=None, help=f"comma-separated motions: deepmimic:<clip>, a bare clip name or a file or 'all' (every DeepMimic clip; default {','.join(DEFAULT_SKILLS)})")
+    g.add_argument("--skills", default=None, help=f"comma-separated motions: deepmimic:<clip>, a bare clip name or a file or 'all' (every DeepMimic clip; default {','.join(DEFAULT_SKILLS)}); NAME@BUDGET gives that skill its own sample budget (backflip@20M)")
     g.add_argument("--inits", default=None, help="comma-separated initial-state strategies of asi, rsi, fsi (default all three)")
     g.add_argument("--seeds", default=None, help="comma-separated base seeds (default: --seed, 0)")
     g.add_argument("--samples", default=None, help=f"sample budget per run: 600, 500k, 2M, 1e6 (default {DEFAULT_SAMPLES:,})")
@@ -156,8 +167,25 @@ def _names(flag: str, text: str) -> list[str]:
     return names
 
 
+def split_budget(text: str, default: int) -> tuple[str, int]:
+    """'backflip@20M' -> ('backflip', 20000000); 'walk' -> ('walk', default)."""
+    name, at, budget = str(text).rpartition("@") if "@" in str(text) else (str(text), "", "")
+    if not at:
+        return str(text), default
+    if not name:
+        raise SfvError(f"--skills {text!r}: no motion before '@'")
+    raw = budget.strip()
+    try:
+        value = whole_number(raw)
+    except ValueError:
+        raise SfvError(f"--skills {text!r}: the budget after '@' must be a whole number of samples (500k, 20M), got {raw!r}") from None
+    if value < 1:
+        raise SfvError(f"--skills {text!r}: the budget after '@' must be positive")
+    return name, value
+
+
 def _skill(text: str) -> tuple[str, str]:
-    """A skill flag entry -> (motion for TrainConfig, short clip name); validates by loading it."""
+    """A skill flag entry (without its @BUDGET) -> (motion for TrainConfig, short clip name); validates by loading it."""
     from actors.motion.formats.io import DEEPMIMIC_CLIPS, load_motion
 
     motion = f"deepmimic:{text}" if text in DEEPMIMIC_CLIPS else text
@@ -226,12 +254,16 @@ def _runner(args) -> str:
 
 def cells(config: LearningConfig) -> list[Cell]:
     """The grid in run order: per skill and seed, the inits one after the other (a cut-short grid stays comparable)."""
-    resolved = [_skill(s) for s in config.skills]
+    budgeted = [split_budget(s, config.samples) for s in config.skills]
+    resolved = [(*_skill(name), budget) for name, budget in budgeted]
     clips: dict[str, str] = {}
-    for (motion, clip), text in zip(resolved, config.skills):
-        if clips.setdefault(clip, motion) != motion:
-            raise SfvError(f"--skills {text!r}: its run name {clip!r} is taken by {clips[clip]}; rename one of the files")
-    return [Cell(motion, clip, init, seed) for motion, clip in resolved for seed in config.seeds for init in config.inits]
+    for (motion, clip, _), text in zip(resolved, config.skills):
+        if clip in clips:
+            taken = "twice" if clips[clip] == motion else f"by {clips[clip]}"
+            raise SfvError(f"--skills {text!r}: its run name {clip!r} is taken {taken}; give each skill once")
+        clips[clip] = motion
+    return [Cell(motion, clip, init, seed, budget) for motion, clip, budget in resolved
+            for seed in config.seeds for init in config.inits]
 
 
 def train_config(config: LearningConfig, cell: Cell):
@@ -239,8 +271,8 @@ def train_config(config: LearningConfig, cell: Cell):
     from services.training.config import TrainConfig
 
     train = TrainConfig(motion=cell.skill, out=str(run_dir_of(config, cell)), workers=config.workers,
-                        envs_per_worker=config.envs_per_worker, init=cell.init, samples=config.samples, seed=cell.seed,
-                        runner=config.runner, device=config.device, eval_every=config.resolved_eval_every(),
+                        envs_per_worker=config.envs_per_worker, init=cell.init, samples=cell.samples, seed=cell.seed,
+                        runner=config.runner, device=config.device, eval_every=config.resolved_eval_every(cell.samples),
                         torch_threads=config.torch_threads)
     train.ppo = dataclasses.replace(train.ppo, seed=cell.seed)
     if config.eval_episodes is not None:
@@ -276,9 +308,12 @@ def _dig(d: dict, path: tuple[str, ...]):
 
 
 def check_existing(config: LearningConfig, grid: list[Cell]) -> dict:
-    """The results so far (a fresh document when there is none); SfvError if a run directory holds another run."""
+    """The results so far (a fresh document when there is none); SfvError if a run directory holds
+    another run, or a run without a record was trained with other settings than its cell's."""
+    from services.bench.run_history import setting_differences
     from services.training.run_dir import CONFIG_FILE
 
+    doc = _read_results(config)
     for cell in grid:
         saved_path = run_dir_of(config, cell) / CONFIG_FILE
         if not saved_path.is_file():
@@ -292,6 +327,17 @@ def check_existing(config: LearningConfig, grid: list[Cell]) -> dict:
             if _dig(saved, path) != _dig(wanted, path):
                 raise SfvError(f"{saved_path.parent}: trained with {key} {_dig(saved, path)!r}, this run asks for "
                                f"{_dig(wanted, path)!r}; use another --out-dir")
+        if cell.name not in doc["runs"]:  # moved in from `sfv train`: the same settings, or it is not this cell's run
+            differing = setting_differences(saved, wanted)
+            if differing:
+                shown = ", ".join(f"{name} {_dig(saved, tuple(name.split('.')))!r} (wanted {_dig(wanted, tuple(name.split('.')))!r})"
+                                  for name in differing[:4])
+                raise SfvError(f"{saved_path.parent}: has no record in {RESULTS_FILE} and was trained with other settings: "
+                               f"{shown}{' ...' if len(differing) > 4 else ''}; move it away or use another --out-dir")
+    return doc
+
+
+def _read_results(config: LearningConfig) -> dict:
     path = Path(config.out_dir) / RESULTS_FILE
     if not path.exists():
         return {"format": FORMAT, "runs": {}}
@@ -317,20 +363,21 @@ def config_summary(config: LearningConfig, train) -> dict:
 
 def read_curve(run_dir: Path) -> dict:
     """Training and evaluation curves from the run's metrics.jsonl (an eval row may be its own line or part of an iteration's)."""
+    from services.bench.run_history import active_seconds
     from services.training.run_dir import read_metrics
 
-    train = {"samples": [], "normalized_return": [], "fall_rate": [], "episode_length": []}
+    train = {"samples": [], "normalized_return": [], "fall_rate": [], "episode_length": [], "wall_s": []}
     evals: list[dict] = []
-    for row in read_metrics(run_dir):
-        if "samples" not in row:
-            continue
+    rows = [row for row in read_metrics(run_dir) if "samples" in row]
+    for row, seconds in zip(rows, active_seconds(rows)):
+        row = {**row, "wall_s": seconds}
         if row.get("normalized_return") is not None:
             for key in train:
                 train[key].append(row.get(key))
         picked = {k: v for k, v in row.items() if k.startswith("eval/")}
         if picked.get("eval/normalized_return") is not None:
-            evals.append({"samples": row["samples"], **picked})
-    keys = ["samples"] + sorted({k for e in evals for k in e if k != "samples"})
+            evals.append({"samples": row["samples"], "wall_s": seconds, **picked})
+    keys = ["samples", "wall_s"] + sorted({k for e in evals for k in e if k not in ("samples", "wall_s")})
     return {"train": train, "eval": {k: [e.get(k) for e in evals] for k in keys}}
 
 
@@ -374,7 +421,7 @@ def run_grid(config: LearningConfig, grid: list[Cell], doc: dict, command: str |
     try:
         for cell in grid:
             entry = doc["runs"].get(cell.name)
-            if entry and entry.get("status") == "complete" and entry.get("config", {}).get("samples", 0) >= config.samples:
+            if entry and entry.get("status") == "complete" and entry.get("config", {}).get("samples", 0) >= cell.samples:
                 log(f"{cell.name}: complete in {RESULTS_FILE} ({entry.get('samples')} samples), skipped")
                 continue
             entry = _run_cell(config, cell, entry, doc, info, log)
@@ -402,12 +449,12 @@ def _run_cell(config: LearningConfig, cell: Cell, previous: dict | None, doc: di
     resume = bool(checkpoint_files(run_dir))
     if not resume:
         _clear_unfinished(run_dir)  # killed before its first checkpoint: start clean, no stale metrics rows
-    earlier_wall = float((previous or {}).get("wall_s") or 0.0) if resume else 0.0
+    earlier_wall = _earlier_wall(previous, run_dir) if resume else 0.0
     resumes = int((previous or {}).get("resumes") or 0) + (1 if resume else 0)
     entry = {"name": cell.name, "skill": cell.skill, "init": cell.init, "seed": cell.seed,
              "run_dir": str(Path(RUNS_DIR) / cell.name), "config": config_summary(config, train),
              "resumes": resumes, "machine": info}
-    log(f"{cell.name}: {'resuming from its newest checkpoint' if resume else 'training'} to {config.samples:,} samples")
+    log(f"{cell.name}: {'resuming from its newest checkpoint' if resume else 'training'} to {cell.samples:,} samples")
     trainer = Trainer(train, resume=resume, progress=config.progress)
     start = time.perf_counter()
     try:
@@ -443,6 +490,17 @@ def _run_cell(config: LearningConfig, cell: Cell, previous: dict | None, doc: di
                  curve=curve, samples_to_threshold=reached, threshold_source=source)
     _save(doc, cell, entry, config)
     return entry
+
+
+def _earlier_wall(previous: dict | None, run_dir: Path) -> float:
+    """Training seconds before this invocation: the record's, or, for a run without one (moved in
+    from `sfv train`, or killed before its record was written), what its metrics' time stamps say."""
+    if previous and previous.get("wall_s"):
+        return float(previous["wall_s"])
+    from services.bench.run_history import training_seconds
+    from services.training.run_dir import read_metrics
+
+    return float(training_seconds([row for row in read_metrics(run_dir) if "samples" in row]) or 0.0)
 
 
 def _clear_unfinished(run_dir: Path) -> None:
@@ -541,7 +599,7 @@ def markdown_table(doc: dict, skills=()) -> str:
                 to = "not reached"
             else:
                 median, minutes = reached[len(reached) // 2]
-                to = (f"{median:,}" + ("" if minutes is None else f" ({minutes:.0f} min)")
+                to = (f"{median:,}" + ("" if minutes is None else f" ({minutes:.{0 if minutes >= 10 else 1}f} min)")
                       + ("" if len(reached) == len(group) else f" ({len(reached)}/{len(group)} seeds)"))
             samples = max(e["samples"] for e in group)
             lines.append(f"| {skill} | {init} | {len(group)} | {samples:,} | {_fmt(nr)} | {_fmt(fall, '.2f')} | {to} |")
@@ -549,9 +607,16 @@ def markdown_table(doc: dict, skills=()) -> str:
 
 
 def minutes_to_threshold(entry: dict) -> float | None:
-    """Wall minutes to the threshold at the run's own average rate (samples / wall_s)."""
+    """Training minutes to the threshold: the time stamp of the evaluation that crossed it where the
+    curve has one, else the run's own average rate (samples / wall_s)."""
     rate, reached = entry.get("samples_per_s"), entry.get("samples_to_threshold")
-    return None if not rate or reached is None else reached / rate / 60.0
+    if reached is None:
+        return None
+    ev = (entry.get("curve") or {}).get("eval") or {}
+    for samples, seconds in zip(ev.get("samples") or [], ev.get("wall_s") or []):
+        if samples == reached and seconds is not None:
+            return seconds / 60.0
+    return None if not rate else reached / rate / 60.0
 
 
 def _mean(values):

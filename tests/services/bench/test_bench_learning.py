@@ -121,14 +121,16 @@ def test_script_calls_the_same_command(tmp_path):
 
 def test_threshold_and_plot_from_eval_rows(tmp_path):
     """The eval/ rows path (the trainer writes them every --eval-every samples): curve, first crossing, plot."""
-    from services.bench.learning_suite import markdown_table, plot, read_curve, samples_to_threshold
+    from services.bench.learning_suite import markdown_table, minutes_to_threshold, plot, read_curve, samples_to_threshold
 
-    rows = [{"samples": 4096 * i, "normalized_return": 0.1 * i} for i in range(1, 6)]
+    rows = [{"samples": 4096 * i, "normalized_return": 0.1 * i, "time": 100.0 + 2.0 * i, "samples_per_s": 2048.0} for i in range(1, 6)]
     rows[1]["eval/normalized_return"], rows[1]["eval/fall_rate"] = 0.5, 0.4
-    rows.append({"samples": 4096 * 5, "eval/normalized_return": 0.85, "eval/fall_rate": 0.0})  # an eval row of its own
+    rows.append({"samples": 4096 * 5, "eval/normalized_return": 0.85, "eval/fall_rate": 0.0, "time": 130.0})  # an eval row of its own
     (tmp_path / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
     curve = read_curve(tmp_path)
-    assert curve["eval"] == {"samples": [8192, 20480], "eval/fall_rate": [0.4, 0.0], "eval/normalized_return": [0.5, 0.85]}
+    assert curve["eval"] == {"samples": [8192, 20480], "wall_s": [4.0, 30.0], "eval/fall_rate": [0.4, 0.0],
+                             "eval/normalized_return": [0.5, 0.85]}
+    assert curve["train"]["wall_s"] == [2.0, 4.0, 6.0, 8.0, 10.0]
     assert len(curve["train"]["samples"]) == 5
     assert samples_to_threshold(curve, 20480, 0.7, 0.8) == (20480, "eval")
     no_eval = {"train": curve["train"], "eval": {"samples": []}}
@@ -138,11 +140,14 @@ def test_threshold_and_plot_from_eval_rows(tmp_path):
              "eval": {"normalized_return": 0.85, "fall_rate": 0.0}, "curve": curve, "samples_to_threshold": 20480}
     doc = {"threshold": 0.8, "runs": {"run_asi_s0": entry, "run_rsi_s0": {**entry, "init": "rsi", "samples_to_threshold": None}}}
     table = markdown_table(doc)
-    assert "| deepmimic:run | asi | 1 | 20,480 | 0.850 | 0.00 | 20,480 |" in table
+    assert "| deepmimic:run | asi | 1 | 20,480 | 0.850 | 0.00 | 20,480 (0.5 min) |" in table
     assert "| deepmimic:run | rsi | 1 | 20,480 | 0.850 | 0.00 | not reached |" in table
     assert plot(doc, tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
-    timed = {**entry, "samples_to_threshold": 61440, "samples_per_s": 512.0}  # 120 s at its own rate
-    assert "| 61,440 (2 min) |" in markdown_table({"threshold": 0.8, "runs": {"run_asi_s0": timed}})
+    untimed = {**entry, "curve": {**curve, "eval": {"samples": [61440], "wall_s": [None]}}}
+    timed = {**untimed, "samples_to_threshold": 61440, "samples_per_s": 512.0}  # 120 s at its own rate
+    assert "| 61,440 (2.0 min) |" in markdown_table({"threshold": 0.8, "runs": {"run_asi_s0": timed}})
+    stamped = {**entry, "samples_per_s": 512.0}  # crossed at the eval row stamped 30 s: its time, not samples / rate
+    assert minutes_to_threshold(stamped) == pytest.approx(0.5)
 
 
 def test_all_skills_means_every_deepmimic_clip():
@@ -188,3 +193,63 @@ def test_the_runner_flag_reaches_every_run_and_the_recorded_command(tmp_path):
     serial = suite.config_from_args(parser.parse_args(["--out-dir", str(tmp_path / "out"), "--skills", "walk", "--serial"]))
     assert suite.train_config(serial, suite.cells(serial)[0]).runner == "in_process"
     assert "--runner" not in suite.command_line(serial)
+
+
+def _learning_config(tmp_path, *flags):
+    import argparse
+
+    from services.bench import learning_suite as suite
+
+    parser = argparse.ArgumentParser()
+    suite.add_arguments(parser)
+    parser.add_argument("--envs-per-worker", default=None)  # `sfv bench` shares it between its suites
+    args = parser.parse_args(["--out-dir", str(tmp_path / "out"), "--inits", "asi", *flags])
+    return suite.config_from_args(args)
+
+
+def test_a_skill_budget_overrides_samples_for_its_runs_and_their_eval_cadence(tmp_path):
+    from services.bench import learning_suite as suite
+
+    config = _learning_config(tmp_path, "--skills", "walk@1M,backflip@20M,run", "--samples", "3M")
+    budgets = {cell.clip: cell.samples for cell in suite.cells(config)}
+    assert budgets == {"walk": 1_000_000, "backflip": 20_000_000, "run": 3_000_000}
+    trains = {cell.clip: suite.train_config(config, cell) for cell in suite.cells(config)}
+    assert trains["backflip"].samples == 20_000_000 and trains["walk"].samples == 1_000_000
+    assert (trains["walk"].eval_every, trains["backflip"].eval_every) == (100_000, suite.EVAL_EVERY_MAX)
+    assert "walk@1M,backflip@20M,run" in suite.command_line(config)
+
+
+@pytest.mark.parametrize("skills, says", [("walk@", "budget after '@'"), ("walk@lots", "budget after '@'"),
+                                          ("@2M", "no motion"), ("walk,walk@2M", "taken twice")])
+def test_bad_skill_budgets_name_the_entry(tmp_path, skills, says):
+    from learner.errors import SfvError
+
+    with pytest.raises(SfvError, match=says):
+        _learning_config(tmp_path, "--skills", skills)
+
+
+def test_a_run_moved_in_with_other_settings_is_refused_and_one_with_the_same_is_recorded(tmp_path):
+    """A `sfv train` run moved into OUT_DIR/runs/: refused, naming the setting, when it learned under
+    other settings; otherwise continued to the budget, evaluated, and timed from its own metrics."""
+    from learner.errors import SfvError
+    from services.bench import learning_suite as suite
+
+    out_dir = tmp_path / "out"
+    moved = out_dir / "runs" / "walk_asi_s0"
+    flags = FLAGS[:FLAGS.index("--inits")] + ["--inits", "asi", "--quiet"]
+    trained = main(["train", "--motion", "deepmimic:walk", "--out", str(moved), "--runner", "in_process", "--workers", "1",
+                    "--envs-per-worker", "4", "--samples", "600", "--eval-every", "600", "--eval-episodes", "2",
+                    "--ppo.batch-size", "256", "--ppo.minibatch-size", "64", "--env.sfv.tracking-termination-m", "0.5"])
+    assert trained == 0
+    config = _learning_config(tmp_path, *[f for f in flags if f not in ("--quiet", "--serial")], "--serial")
+    with pytest.raises(SfvError, match=r"other settings: env\.sfv\.tracking_termination_m 0\.5"):
+        suite.check_existing(config, suite.cells(config))
+    saved = json.loads((moved / "config.json").read_text())
+    saved["env"]["sfv"]["tracking_termination_m"] = suite.train_config(config, suite.cells(config)[0]).env.sfv.tracking_termination_m
+    (moved / "config.json").write_text(json.dumps(saved))  # as if trained at the defaults
+    before = checkpoints(out_dir)
+    code, stdout, _ = bench(out_dir, "--inits", "asi")
+    assert code == 0, stdout
+    run = json.loads((out_dir / "learning.json").read_text())["runs"]["walk_asi_s0"]
+    assert run["status"] == "complete" and run["resumes"] == 1 and checkpoints(out_dir) == before
+    assert run["wall_s"] > 0 and run["curve"]["eval"]["wall_s"][-1] == pytest.approx(run["curve"]["train"]["wall_s"][-1], abs=60)
