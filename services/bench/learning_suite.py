@@ -586,8 +586,8 @@ def _complete(doc: dict, skill: str) -> list[dict]:
 def markdown_table(doc: dict, skills=()) -> str:
     """skill x init: mean over seeds of the final eval NR and fall rate, and the samples to reach the threshold."""
     threshold = doc.get("threshold", THRESHOLD)
-    lines = [f"| skill | init | seeds | samples | eval NR | fall rate | samples to NR {threshold:g} |",
-             "|---|---|---:|---:|---:|---:|---:|"]
+    lines = [f"| skill | init | seeds | samples | minutes | eval NR | falls | samples to NR {threshold:g} |",
+             "|---|---|---:|---:|---:|---:|---:|---:|"]
     for skill in _ordered_skills(doc, skills):
         runs = _complete(doc, skill)
         for init in dict.fromkeys(e["init"] for e in runs):
@@ -602,8 +602,20 @@ def markdown_table(doc: dict, skills=()) -> str:
                 to = (f"{median:,}" + ("" if minutes is None else f" ({minutes:.{0 if minutes >= 10 else 1}f} min)")
                       + ("" if len(reached) == len(group) else f" ({len(reached)}/{len(group)} seeds)"))
             samples = max(e["samples"] for e in group)
-            lines.append(f"| {skill} | {init} | {len(group)} | {samples:,} | {_fmt(nr)} | {_fmt(fall, '.2f')} | {to} |")
+            minutes = _mean([e.get("wall_s") / 60.0 if e.get("wall_s") else None for e in group])
+            lines.append(f"| {skill} | {init} | {len(group)} | {samples:,} | {_fmt(minutes, '.1f')} | {_fmt(nr)} | "
+                         f"{_falls(group, fall)} | {to} |")
     return "\n".join(lines)
+
+
+def _falls(group: list[dict], mean_rate) -> str:
+    """One run: its falls out of its episodes (3 / 32); several: the mean fall rate."""
+    if len(group) == 1:
+        ev = group[0]["eval"]
+        episodes, rate = ev.get("episodes"), ev.get("fall_rate")
+        if episodes and rate is not None:
+            return f"{round(rate * episodes)} / {episodes}"
+    return _fmt(mean_rate, ".2f")
 
 
 def minutes_to_threshold(entry: dict) -> float | None:

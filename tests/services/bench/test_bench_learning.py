@@ -140,8 +140,10 @@ def test_threshold_and_plot_from_eval_rows(tmp_path):
              "eval": {"normalized_return": 0.85, "fall_rate": 0.0}, "curve": curve, "samples_to_threshold": 20480}
     doc = {"threshold": 0.8, "runs": {"run_asi_s0": entry, "run_rsi_s0": {**entry, "init": "rsi", "samples_to_threshold": None}}}
     table = markdown_table(doc)
-    assert "| deepmimic:run | asi | 1 | 20,480 | 0.850 | 0.00 | 20,480 (0.5 min) |" in table
-    assert "| deepmimic:run | rsi | 1 | 20,480 | 0.850 | 0.00 | not reached |" in table
+    assert "| deepmimic:run | asi | 1 | 20,480 | - | 0.850 | 0.00 | 20,480 (0.5 min) |" in table
+    assert "| deepmimic:run | rsi | 1 | 20,480 | - | 0.850 | 0.00 | not reached |" in table
+    counted = {**entry, "wall_s": 90.0, "eval": {"normalized_return": 0.85, "fall_rate": 0.09375, "episodes": 32}}
+    assert "| deepmimic:run | asi | 1 | 20,480 | 1.5 | 0.850 | 3 / 32 | 20,480 (0.5 min) |" in markdown_table({"threshold": 0.8, "runs": {"r": counted}})
     assert plot(doc, tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
     untimed = {**entry, "curve": {**curve, "eval": {"samples": [61440], "wall_s": [None]}}}
     timed = {**untimed, "samples_to_threshold": 61440, "samples_per_s": 512.0}  # 120 s at its own rate
