@@ -212,8 +212,8 @@ def _convert_to_g1(args: argparse.Namespace) -> int:
         raise SfvError(f"{args.out}: cannot write motion ({exc.strerror or exc})") from None
     for line in g1_result_lines(report):
         print(line)
-    print(f"wrote {out} ({robot_motion.num_frames} frames at {robot_motion.fps:.3g} fps, {report['seconds']:.1f} s) "
-          f"and {report_path}")
+    print(f"wrote {out} ({robot_motion.num_frames} frames at {robot_motion.fps:.3g} fps, {robot_motion.summary()['duration']:.2f} s "
+          f"of motion, retargeted in {report['seconds']:.1f} s) and {report_path}")
     return 0
 
 
