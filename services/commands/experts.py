@@ -1,10 +1,12 @@
 """`sfv experts`: train a tracking expert per clip (one resumable Ray job), and tabulate them.
 
-    sfv experts CLIPS... --out DIR [--samples N] [--parallel K] [--table]
+    sfv experts CLIPS... --out DIR [--character humanoid3d|g1] [--samples N] [--parallel K] [--table]
     sfv experts table DIR [CLIP...] [--table-out OUT] [--episodes E] [--parallel K]   (default: every trained clip and its mirror)
     sfv experts render DIR CLIP --video FILE.mp4 [--seconds T]   (CLIP may be <clip>_mirror)
 
 CLIPS are DeepMimic clip names, `<clip>_mirror` (served by symmetry, not trained) or `all`.
+--character g1 trains them on the Unitree G1 (the clips retargeted at load); an experts
+directory holds one body's experts, and mirrored experts are the humanoid3d's only for now.
 """
 from __future__ import annotations
 
@@ -15,19 +17,25 @@ HELP = "train one tracking expert per clip (resumable Ray job), or `table DIR` t
 
 
 def register(sub) -> None:
-    from services.experts.job import DEFAULT_SAMPLES
+    from actors.character.characters import CHARACTER_NAMES
+    from services.experts.job import DEFAULT_SAMPLES, HUMANOID
     from services.experts.table import CURVE_SECONDS, DEFAULT_EPISODES, DEFAULT_STARTS
 
     p = sub.add_parser("experts", help=HELP,
-                       usage="sfv experts CLIPS... --out DIR [--samples N] [--parallel K] [--table]\n"
+                       usage="sfv experts CLIPS... --out DIR [--character humanoid3d|g1] [--samples N] [--parallel K] [--table]\n"
                              "       sfv experts table DIR [CLIP...] [--table-out OUT] [--episodes E] [--parallel K]\n"
                              "       sfv experts render DIR CLIP --video FILE.mp4 [--seconds T]",
                        description="Tracking experts (NPMP, 004 §3.2): one standard run directory DIR/<clip>/ per clip, "
                                    "finished clips skipped, partial ones resumed; <clip>_mirror comes from <clip>'s expert by "
-                                   "left/right symmetry; `all` is every DeepMimic clip and its mirror. `table DIR` writes "
+                                   "left/right symmetry (humanoid3d experts only); `all` is every DeepMimic clip and its mirror. "
+                                   "--character g1 trains the experts on the Unitree G1 (a directory holds one body's experts). "
+                                   "`table DIR` writes "
                                    "DIR/experts.json, experts.md and the Fig. 3B plot experts_tracking.png.")
     p.add_argument("clips", nargs="+", metavar="CLIP", help="clip names, <clip>_mirror, all; or `table DIR`")
     p.add_argument("--out", default=None, help="experts directory (one run directory per clip)")
+    p.add_argument("--character", default=HUMANOID, choices=CHARACTER_NAMES,
+                   help="the body every expert of --out trains (default humanoid3d; g1: the Unitree G1, `sfv models fetch --robot g1`, "
+                        "the clips retargeted at load, no <clip>_mirror); a directory of the other body's experts is refused")
     p.add_argument("--samples", type=int, default=DEFAULT_SAMPLES, help="sample budget of each training (a clip with that many is finished)")
     p.add_argument("--curriculum-samples", type=int, default=None, help="episode-length curriculum of new trainings (default: half the budget)")
     p.add_argument("--parallel", type=int, default=None, help="trainings (or evaluations) at once, one core each (default: every core)")
@@ -46,7 +54,8 @@ def run(args) -> int:
     import logging
 
     from learner.errors import SfvError
-    from services.experts.job import default_parallel, expand_clips, run_experts_job
+    from services.experts.job import HUMANOID, default_parallel, expand_clips, run_experts_job
+    from services.experts.library import directory_character
     from services.experts.table import build_table, markdown_table
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
@@ -63,14 +72,17 @@ def run(args) -> int:
     if args.clips[0] == "table":
         if len(args.clips) < 2:
             raise SfvError("sfv experts table: give the experts directory (sfv experts table DIR [CLIP...])")
-        clips = expand_clips(args.clips[2:]) if len(args.clips) > 2 else None
+        # The body is the runs' own (config.json): `all` of a G1 directory has no mirrors, a named one is refused.
+        found = directory_character(args.clips[1])
+        clips = expand_clips(args.clips[2:], found[0] if found else HUMANOID) if len(args.clips) > 2 else None
         print(markdown_table(build_table(args.clips[1], clips, **table_args)), end="")
         return 0
     if args.out is None:
         raise SfvError("sfv experts: --out DIR is required (the experts directory)")
     summary = run_experts_job(args.clips, args.out, args.samples, parallel, curriculum_samples=args.curriculum_samples,
-                              progress=not args.quiet)
-    print(json.dumps({"out": args.out, "status": {clip: s["state"] for clip, s in summary["status"].items()}}))
+                              progress=not args.quiet, character=args.character)
+    states = {clip: s["state"] for clip, s in summary["status"].items()}
+    print(json.dumps({"out": args.out, "character": summary["character"], "status": states}))
     if args.table:
         print(markdown_table(build_table(args.out, **table_args)), end="")
     return 0

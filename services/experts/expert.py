@@ -5,8 +5,9 @@ interface for `<clip>_mirror`; `library.load_expert(DIR, clip)` finds either in 
 directory. Consumers (the table, the dataset recorder) need only:
 - `expert.motion`: the clip's motion name (`deepmimic:walk`, `deepmimic:walk_mirror`);
 - `expert.env_config`: the `EnvConfig` the expert acts in (the training run's);
-- `expert.make_env()`: an `ImitationEnv` on that clip with that config;
-- `expert.act(obs)`: the mean actions (B, 28) float32 for a batch of that env's observations
+- `expert.make_env()`: an `ImitationEnv` on that clip with that config (its character's body:
+  `env_config.character`, humanoid3d or g1, a humanoid clip retargeted onto a robot at load);
+- `expert.act(obs)`: the mean actions (B, act_dim: 28 humanoid3d, 29 g1) float32 for a batch of that env's observations
   (B, obs_dim); `mean` is the same call (what `evaluate_policy` looks for).
 Action noise for robustness (004 §3.2: sigma = .1 on [-1, 1] actions) is the caller's: add it
 to `act`'s means. PPO already trains every expert with that noise, its fixed Gaussian action
@@ -19,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
-from actors.motion.formats.io import load_motion
+from actors.character.characters import character_named
+from actors.motion.character_reference import load_reference
 
 
 class Expert:
@@ -38,7 +40,11 @@ class Expert:
         return cls(NumpyPolicy(weights, max_batch=max_batch), config.env, config.motion, Path(run_dir).name)
 
     def make_env(self) -> ImitationEnv:
-        return ImitationEnv(load_motion(self.motion), self.env_config)
+        return ImitationEnv(self.reference(), self.env_config)
+
+    def reference(self):
+        """The clip in the pose space of the expert's character."""
+        return load_reference(self.motion, character_named(self.env_config.character))
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         """Mean actions (B, act_dim), a fresh float32 array."""

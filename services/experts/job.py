@@ -12,6 +12,14 @@ Mirrored clips (`<clip>_mirror`) are not trained: `MirroredExpert` serves them f
 original's expert, so asking for one trains its original. `all` is every DeepMimic
 humanoid3d clip in pybullet_data and its mirror.
 
+The body (`character`, `--character humanoid3d|g1`) is the template's `env.character`; each
+run's config.json remembers it, so `sfv eval` / `render` of an expert build that body. A
+humanoid clip trains on the G1 retargeted at load (`actors/motion/character_reference.py`). An
+experts directory holds one body's experts: extending or resuming a directory of one with the
+other is refused in one line naming `--character` and the directory. Mirrored experts are the
+humanoid3d's only for now (`mirrored_expert.py`): for the G1, `all` is every clip without its
+mirror and a `<clip>_mirror` is refused.
+
 Robustness to action noise (004 §3.2: sigma = .1 per actuator on [-1, 1] actions) needs no
 extra setting: PPO explores with a fixed Gaussian action std of 0.1 in the env's normalised
 action units (`learner/config.py` `action_std`), which is that noise, throughout training.
@@ -31,26 +39,32 @@ from pathlib import Path
 from actors.character.mirror import MIRROR_SUFFIX
 from actors.motion.formats.io import DEEPMIMIC_CLIPS
 from learner.errors import SfvError
+from services.experts.library import MIRROR_CHARACTERS, check_mirror, directory_character
 from services.training.config import TrainConfig
 from services.training.run_dir import CONFIG_FILE, read_run_config
 
 ALL = "all"
+HUMANOID = "humanoid3d"  # the default body (`EnvConfig.character`)
 DEFAULT_SAMPLES = 1_000_000
 JOB_FILE = "experts_job.json"
 POLL_S = 2.0
 
 
 # ----------------------------------------------------------------------------- clip lists
-def expand_clips(names: list[str]) -> list[str]:
-    """Clip names in order, duplicates dropped; `all` = every clip and its mirror. A name is
-    a DeepMimic clip or `<clip>_mirror`; anything else is an SfvError naming it."""
+def expand_clips(names: list[str], character: str = HUMANOID) -> list[str]:
+    """Clip names in order, duplicates dropped; `all` = every clip and its mirror (a body
+    without mirrored experts: every clip). A name is a DeepMimic clip or `<clip>_mirror`;
+    anything else is an SfvError naming it, and so is a mirror for such a body."""
+    mirrors = character in MIRROR_CHARACTERS
     clips: list[str] = []
     for name in names:
-        expanded = [c for clip in DEEPMIMIC_CLIPS for c in (clip, clip + MIRROR_SUFFIX)] if name == ALL else [name]
+        every = [c for clip in DEEPMIMIC_CLIPS for c in ((clip, clip + MIRROR_SUFFIX) if mirrors else (clip,))]
+        expanded = every if name == ALL else [name]
         for clip in expanded:
             if clip.removesuffix(MIRROR_SUFFIX) not in DEEPMIMIC_CLIPS:
                 raise SfvError(f"sfv experts: {clip!r} is not a DeepMimic clip or <clip>{MIRROR_SUFFIX} "
                                f"(known: {', '.join(DEEPMIMIC_CLIPS)}, or all)")
+            check_mirror(clip, character)
             if clip not in clips:
                 clips.append(clip)
     if not clips:
@@ -94,9 +108,19 @@ def samples_logged(run_dir: Path) -> int:
     return 0
 
 
+def check_character(out: Path, character: str) -> None:
+    """An experts directory holds one body's experts: a trained run of another character in
+    `out` is a one-line SfvError naming `--character` and the directory."""
+    found = directory_character(out)
+    if found is not None and found[0] != character:
+        trained, run_dir = found
+        raise SfvError(f"sfv experts: {out} holds {trained} experts ({run_dir.name}/), not {character}: "
+                       f"rerun with --character {trained}, or give another --out for the {character}")
+
+
 def expert_config(template: TrainConfig, clip: str, run_dir: Path, samples: int, curriculum_samples: int | None) -> tuple[TrainConfig, bool]:
     """(config, resume) of one clip's training: the run's saved config with the budget raised
-    when it has a checkpoint, else the template for this clip."""
+    when it has a checkpoint (its character must be the template's), else the template for this clip."""
     done = samples_done(run_dir)
     settings = dict(out=str(run_dir), samples=int(samples), runner=template.runner, workers=template.workers,
                     torch_threads=template.torch_threads, plot_every=template.plot_every)
@@ -104,6 +128,9 @@ def expert_config(template: TrainConfig, clip: str, run_dir: Path, samples: int,
         config = read_run_config(run_dir)
         if config.motion != f"deepmimic:{clip}":
             raise SfvError(f"{run_dir / CONFIG_FILE}: trains {config.motion}, not deepmimic:{clip}")
+        if config.env.character != template.env.character:
+            raise SfvError(f"sfv experts: {run_dir} is a {config.env.character} expert, not {template.env.character}: "
+                           f"rerun with --character {config.env.character}, or give another --out")
         return dataclasses.replace(config, **settings), True
     curriculum = template.curriculum_samples if curriculum_samples is None else curriculum_samples
     config = dataclasses.replace(template, motion=f"deepmimic:{clip}", job_id=None, curriculum_samples=int(curriculum), **settings)
@@ -131,24 +158,39 @@ def default_parallel() -> int:
     return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
 
 
-def job_template(samples: int = DEFAULT_SAMPLES) -> TrainConfig:
+def job_template(samples: int = DEFAULT_SAMPLES, character: str = HUMANOID) -> TrainConfig:
     """The settings every new expert trains with: the project defaults (RSI-free ASI starts,
     residual exp-map actions, the episode curriculum over half the budget), workers in the
-    task's process, one torch thread."""
-    return TrainConfig(samples=samples, curriculum_samples=max(1, samples // 2), runner="in_process", workers=2, torch_threads=1)
+    task's process, one torch thread, on `character`'s body."""
+    config = TrainConfig(samples=samples, curriculum_samples=max(1, samples // 2), runner="in_process", workers=2, torch_threads=1)
+    return with_character(config, character)
+
+
+def with_character(config: TrainConfig, character: str) -> TrainConfig:
+    """`config` on `character`'s body (an SfvError naming the registered ones when there is no such body)."""
+    from actors.character.characters import CHARACTER_NAMES
+
+    if character not in CHARACTER_NAMES:
+        raise SfvError(f"sfv experts: --character {character!r} is not a character (known: {', '.join(CHARACTER_NAMES)})")
+    return dataclasses.replace(config, env=dataclasses.replace(config.env, character=character))
 
 
 def run_experts_job(clips: list[str], out: str | Path, samples: int = DEFAULT_SAMPLES, parallel: int | None = None,
                     template: TrainConfig | None = None, curriculum_samples: int | None = None,
-                    progress: bool = True, ray_address: str | None = None) -> dict:
-    """Train every clip of `clips` (see `expand_clips`) that is not finished, K at once;
-    returns (and writes to DIR/experts_job.json) each clip's status."""
+                    progress: bool = True, ray_address: str | None = None, character: str | None = None) -> dict:
+    """Train every clip of `clips` (see `expand_clips`) that is not finished, K at once, on
+    `character`'s body (default: the template's, humanoid3d); returns (and writes to
+    DIR/experts_job.json) each clip's status. A directory of the other body's experts is refused."""
     from services.ray_session import ray_session
 
-    clips = expand_clips(clips)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     template = template or job_template(samples)
+    if character is not None:
+        template = with_character(template, character)
+    character = template.env.character
+    clips = expand_clips(clips, character)
+    out = Path(out)
+    check_character(out, character)
+    out.mkdir(parents=True, exist_ok=True)
     if curriculum_samples is None and template.curriculum_samples > samples:
         curriculum_samples = max(1, samples // 2)
     parallel = parallel or default_parallel()
@@ -175,7 +217,7 @@ def run_experts_job(clips: list[str], out: str | Path, samples: int = DEFAULT_SA
         # The bars come from the run directories; the tasks' own output goes to the log (--verbose forwards it).
         with ray_session(ray_address, num_cpus=parallel, log_to_driver=None):
             _run_tasks(pending, status, samples, progress)
-    summary = {"clips": clips, "samples": int(samples), "parallel": int(parallel), "status": status}
+    summary = {"clips": clips, "samples": int(samples), "parallel": int(parallel), "character": character, "status": status}
     from learner.atomic_io import atomic_write_json
 
     atomic_write_json(out / JOB_FILE, summary, sort_keys=True)

@@ -9,14 +9,29 @@ state back into a scratch MjData and computing the original clip's observation t
 root's heading frame and every term (links, velocities, future reference roots, phase)
 mirrors. The only differences from a trained mirrored expert are MuJoCo's own numerical
 asymmetries (contact order, solver), which the eval NR measures (`sfv experts table`).
+
+Humanoid3d experts only (`MIRROR_CHARACTERS`): the observation and action mirrors here are
+the humanoid's, and the G1's hinge mirror signs have not been verified against its
+simulation, so a G1 expert's mirror is refused in one line rather than guessed.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from actors.character.humanoid3d import Humanoid
-from actors.character.mirror import action_mirror, mirrored_name, observation_mirror
+from actors.character.mirror import MIRROR_SUFFIX, action_mirror, mirrored_name, observation_mirror
+from learner.errors import SfvError
 from services.experts.expert import Expert
+
+MIRROR_CHARACTERS = ("humanoid3d",)  # the bodies whose experts are mirrored by symmetry
+
+
+def check_mirror(clip: str, character: str) -> None:
+    """One-line SfvError when `clip` is a `<clip>_mirror` and `character` has no mirrored experts."""
+    if clip.endswith(MIRROR_SUFFIX) and character not in MIRROR_CHARACTERS:
+        raise SfvError(f"sfv experts: {clip}: mirrored experts are {', '.join(MIRROR_CHARACTERS)}-only for now, "
+                       f"not the {character}'s (its hinge mirror signs are not verified); "
+                       f"train {clip.removesuffix(MIRROR_SUFFIX)} without the mirror")
 
 
 class MirroredExpert(Expert):
@@ -27,6 +42,7 @@ class MirroredExpert(Expert):
     that env. Nothing else is needed: no state, no MjData, no reference."""
 
     def __init__(self, expert: Expert):
+        check_mirror(mirrored_name(expert.name), expert.env_config.character)
         super().__init__(expert.policy, expert.env_config, mirrored_name(expert.motion), mirrored_name(expert.name))
         self.expert = expert
         humanoid = Humanoid(expert.env_config.physics)

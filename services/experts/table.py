@@ -11,6 +11,9 @@ Per expert (a trained `DIR/<clip>/` and, by symmetry, `<clip>_mirror`):
   rollouts are not cut at a fall (a fallen character's error is what the curve is to show);
   the fraction fallen by each time is recorded beside it. At each time the curve is the mean
   over the starts still running.
+Each row is measured on its run's body (config.json's `env.character`: the humanoid3d's 12
+joints and 4 end effectors, or the G1's 29 hinges and its ankle-roll and wrist-yaw links),
+through the env's own reward layout; a G1 directory has no mirrored rows.
 Deviation: 004's tracking error is its reward's energy (joint angles, velocities, appendages,
 ...); here the two errors are the evaluation's, which a reader can interpret in rad and m.
 
@@ -71,7 +74,9 @@ def tracking_curve(expert, env, starts: int = DEFAULT_STARTS, seconds: float = C
                 has_fallen = has_fallen or detector(env.data)
                 fell[steps - 1] = has_fallen
             if steps:
-                rot, ee = tracking_errors(RewardFeatures(sim_rows[:steps]), env.track.features.take(ref_rows[:steps]))
+                # The env's character's reward layout (its joints, its end effectors), not the humanoid's default.
+                sim = RewardFeatures(sim_rows[:steps], env.features.reward_shape)
+                rot, ee = tracking_errors(sim, env.track.features.take(ref_rows[:steps]))
                 rotation[:steps] += rot
                 end_effector[:steps] += ee
                 running[:steps] += 1
@@ -91,18 +96,17 @@ def evaluate_expert(experts_dir: str, clip: str, episodes: int = DEFAULT_EPISODE
     """One table row: the strict evaluation and the tracking curve of `clip`'s expert."""
     from threadpoolctl import threadpool_limits
 
-    from actors.motion.formats.io import load_motion
     from services.experts.job import samples_done
     from services.experts.library import load_expert
     from services.training.evaluation import evaluate_policy, make_eval_env
 
-    expert = load_expert(experts_dir, clip, max_batch=1)
-    env = make_eval_env(load_motion(expert.motion), expert.env_config)
+    expert = load_expert(experts_dir, clip, max_batch=1)  # its run's body (config.json's env.character)
+    env = make_eval_env(expert.reference(), expert.env_config)
     with threadpool_limits(1, user_api="blas"):  # batch-1 inference: BLAS threads only spin
         figures = evaluate_policy(expert, env, episodes)
         curve = tracking_curve(expert, env, starts, curve_seconds)
-    row = {"clip": clip, "motion": expert.motion, **{k: figures[k] for k in FIGURES}, "survival_rate": 1.0 - figures["fall_rate"],
-           "clip_seconds": env.motion.duration, "loop": env.motion.loop, "curve": curve}
+    row = {"clip": clip, "motion": expert.motion, "character": expert.env_config.character, **{k: figures[k] for k in FIGURES},
+           "survival_rate": 1.0 - figures["fall_rate"], "clip_seconds": env.motion.duration, "loop": env.motion.loop, "curve": curve}
     original = clip.removesuffix(MIRROR_SUFFIX)
     row["samples"] = samples_done(Path(experts_dir) / original)
     if clip != original:
@@ -112,11 +116,13 @@ def evaluate_expert(experts_dir: str, clip: str, episodes: int = DEFAULT_EPISODE
 
 def table_clips(experts_dir: Path, mirrors: bool = True) -> list[str]:
     """Every clip with a trained expert in the directory (a subdirectory with a checkpoint),
-    each followed by its mirror."""
+    each followed by its mirror when its body has mirrored experts (the humanoid3d's)."""
+    from services.experts.library import MIRROR_CHARACTERS, run_character
     from services.training.run_dir import checkpoint_files
 
     trained = sorted(p.name for p in experts_dir.iterdir() if p.is_dir() and checkpoint_files(p))
-    return [c for clip in trained for c in ((clip, clip + MIRROR_SUFFIX) if mirrors else (clip,))]
+    return [c for clip in trained
+            for c in ((clip, clip + MIRROR_SUFFIX) if mirrors and run_character(experts_dir / clip) in MIRROR_CHARACTERS else (clip,))]
 
 
 def build_table(experts_dir: str | Path, clips: list[str] | None = None, episodes: int = DEFAULT_EPISODES,
@@ -130,6 +136,7 @@ def build_table(experts_dir: str | Path, clips: list[str] | None = None, episode
     from tqdm import tqdm
 
     from services.experts.job import samples_done
+    from services.experts.library import check_mirror, run_character
 
     experts_dir = Path(experts_dir)
     if not experts_dir.is_dir():
@@ -139,6 +146,10 @@ def build_table(experts_dir: str | Path, clips: list[str] | None = None, episode
     clips = clips or table_clips(experts_dir)
     if not clips:
         raise SfvError(f"{experts_dir}: no trained experts (no <clip>/ run directory with a checkpoint)")
+    for clip in clips:  # a mirror of a body without mirrored experts: refused here, not inside a task
+        original = experts_dir / clip.removesuffix(MIRROR_SUFFIX)
+        if clip.endswith(MIRROR_SUFFIX) and (original / "config.json").is_file():
+            check_mirror(clip, run_character(original))
     settings = {"experts_dir": str(experts_dir), "episodes": int(episodes), "curve_starts": int(starts), "curve_seconds": float(curve_seconds)}
     earlier = _earlier_rows(out / TABLE_JSON, settings)
     trained = {clip: samples_done(experts_dir / clip.removesuffix(MIRROR_SUFFIX)) for clip in clips}
@@ -202,9 +213,10 @@ def _at(curve: dict, key: str, seconds: float):
 
 def markdown_table(table: dict) -> str:
     fmt = lambda v, spec: "-" if v is None or (isinstance(v, float) and math.isnan(v)) else format(v, spec)  # noqa: E731
-    lines = [f"Experts in `{table['experts_dir']}`: {table['episodes']} strict evaluation episodes each; tracking error at "
-             f"1 s and 3 s after initialisation from {table['curve_starts']} starts (Fig. 3B). Survival: mean seconds before a strict "
-             "fall or the episode's end (a clip that does not loop ends with the clip); NR - original: a mirrored expert's NR "
+    characters = sorted({row.get("character", "humanoid3d") for row in table["experts"]})  # rows written before the G1: humanoid3d
+    lines = [f"Experts ({', '.join(characters)}) in `{table['experts_dir']}`: {table['episodes']} strict evaluation episodes each; "
+             f"tracking error at 1 s and 3 s after initialisation from {table['curve_starts']} starts (Fig. 3B). "
+             "Survival: mean seconds before a strict fall or the episode's end (a clip that does not loop ends with the clip); NR - original: a mirrored expert's NR "
              "minus its original's.", "",
              "| clip | samples | NR | fall rate | survival (s) | joint rot. err (rad) | end-eff. err (m) | rot. err @1 s | @3 s | NR - original |",
              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]

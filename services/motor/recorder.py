@@ -107,8 +107,10 @@ def record_clip(experts_dir: str, clip: str, clip_index: int, out_dir: str, conf
 
 def expert_clips(experts_dir: Path, clips: list[str] | None) -> list[str]:
     """The clips to record, checked against `experts_dir` (`<clip>_mirror` needs `<clip>`'s run);
-    every expert run with a checkpoint when `clips` is None."""
+    every expert run with a checkpoint when `clips` is None. humanoid3d experts only: a G1
+    expert is a one-line SfvError (the dataset's fields have the humanoid's sizes)."""
     from actors.character.mirror import MIRROR_SUFFIX
+    from services.experts.library import humanoid_experts_only
 
     experts_dir = Path(experts_dir)
     if not experts_dir.is_dir():
@@ -121,6 +123,7 @@ def expert_clips(experts_dir: Path, clips: list[str] | None) -> list[str]:
             raise SfvError(f"{run}: no expert run directory for clip {clip!r}")
     if not clips:
         raise SfvError(f"{experts_dir}: no expert run directories")
+    humanoid_experts_only(experts_dir, clips)  # the dataset's sizes are the humanoid's: a G1 expert is refused
     return list(clips)
 
 
