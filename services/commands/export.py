@@ -5,9 +5,10 @@
         onnxruntime alone: `sfv eval --onnx`, `sfv render --onnx`)
     sfv export RUN --motion rollout.npz --bvh rollout.bvh [--episodes 1] [--seconds T]
         roll the policy out and record the simulated character's root and joint rotations at
-        every control step, as an sfv motion (.npz; a robot's: a robot motion file) and/or BVH (humanoid3d) (Y up, centimetres by default,
-        ZXY Euler channels; see actors/motion/formats/bvh.py). With --episodes E > 1 each episode
-        goes to its own file: NAME_ep01.npz, NAME_ep02.npz, ...
+        every control step, as an sfv motion (.npz; a robot's: a robot motion file) and/or BVH (Y up,
+        centimetres by default, ZXY Euler channels; the humanoid's skeleton, actors/motion/formats/bvh.py,
+        or a robot's bodies from its MJCF, the G1's pelvis and 29 links, actors/motion/formats/robot_bvh.py).
+        With --episodes E > 1 each episode goes to its own file: NAME_ep01.npz, NAME_ep02.npz, ...
 
 Prints one JSON object naming the files written.
 """
@@ -31,7 +32,7 @@ def register(sub) -> None:
                    help="best: best.pt, the best periodic evaluation (the newest checkpoint when the run has none); latest: the newest checkpoint")
     p.add_argument("--onnx", default=None, help="write the policy as ONNX here")
     p.add_argument("--motion", default=None, help="write the rollout as an sfv motion .npz here")
-    p.add_argument("--bvh", default=None, help="write the rollout as BVH here")
+    p.add_argument("--bvh", default=None, help="write the rollout as BVH here (the humanoid's skeleton or a robot's bodies)")
     p.add_argument("--policy-onnx", default=None, help="roll out this exported ONNX policy instead of the checkpoint (no torch)")
     add_rollout_args(p)
     p.add_argument("--units", choices=("cm", "m"), default="cm", help="BVH length unit")
@@ -66,16 +67,11 @@ def _check_args(args) -> None:
 def export_rollouts(args) -> list[dict]:
     from threadpoolctl import threadpool_limits
 
-    from actors.motion.character_reference import HUMANOID
-    from actors.motion.formats.bvh import write_bvh
-    from learner.errors import SfvError
     from services.export.rollout import record_episode
     from services.training.policy_source import load_policy_source
 
     source = load_policy_source(args.run, args.policy_onnx, checkpoint=args.checkpoint)
     env = source.make_env()
-    if args.bvh and env.motion.character != HUMANOID:
-        raise SfvError(f"{args.bvh}: BVH export writes the humanoid3d's skeleton; a {env.motion.character} rollout goes to --motion FILE.npz")
     written = []
     for episode in range(args.episodes):
         name = f"{env.motion.name} rollout of {source.description} (seed {args.seed + episode})"
@@ -86,7 +82,7 @@ def export_rollouts(args) -> list[dict]:
         if args.motion:
             entry["motion"] = str(_save_rollout(motion, env, _episode_path(args.motion, episode, args.episodes)))
         if args.bvh:
-            entry["bvh"] = str(write_bvh(motion, _episode_path(args.bvh, episode, args.episodes), args.units))
+            entry["bvh"] = str(_save_bvh(motion, env, _episode_path(args.bvh, episode, args.episodes), args.units))
         written.append(entry)
     return written
 
@@ -100,9 +96,27 @@ def _save_rollout(motion, env, path: Path) -> Path:
 
         return save_motion(motion, path)
     from actors.motion.robot_motion import save_robot_motion
+
+    return save_robot_motion(_robot_motion(motion, env), path)
+
+
+def _save_bvh(motion, env, path: Path, units: str) -> Path:
+    """A humanoid rollout on the humanoid's skeleton, a robot's on its MJCF bodies (`robot_bvh.py`)."""
+    from actors.motion.character_reference import HUMANOID
+
+    if motion.character == HUMANOID:
+        from actors.motion.formats.bvh import write_bvh
+
+        return write_bvh(motion, path, units)
+    from actors.motion.formats.robot_bvh import write_robot_bvh
+
+    return write_robot_bvh(_robot_motion(motion, env), env.humanoid, path, units)
+
+
+def _robot_motion(motion, env):
     from actors.motion.robot_reference import robot_motion_of
 
-    return save_robot_motion(robot_motion_of(motion, env.humanoid.character, source=env.motion.name), path)
+    return robot_motion_of(motion, env.humanoid.character, source=env.motion.name)
 
 
 def run(args) -> int:

@@ -146,8 +146,11 @@ def motion_to_bvh_text(motion: ReferenceMotion, units: str = "cm") -> str:
     joint_euler = quats_to_euler_deg(zup_to_yup_quat(joint_rot))  # (T, 12, 3)
     for joint in joints[1:]:
         columns.append(joint_euler[:, JOINT_NAMES.index(joint.name)])
-    frames = np.concatenate(columns, axis=1)
+    return bvh_text(joints, np.concatenate(columns, axis=1), period)
 
+
+def bvh_text(joints: list[BvhJoint], frames: np.ndarray, period: float) -> str:
+    """The file: `joints` (depth first, the root first) and one line of `frames` (T, channels) per frame."""
     lines = ["HIERARCHY"]
     _hierarchy_lines(joints, 0, 0, lines)
     lines += ["MOTION", f"Frames: {len(frames)}", f"Frame Time: {period:.9f}"]

@@ -117,8 +117,6 @@ def test_export_onnx_and_render_of_a_g1_run(g1_run, tmp_path, capsys):
     written = json.loads(capsys.readouterr().out)["rollouts"][0]
     recorded = load_robot_motion(rollout, "g1")  # the robot's own file, checked against its joints and limits
     assert recorded.num_frames == written["frames"] and recorded.fps == 30.0
-    assert main(["export", str(g1_run), "--bvh", str(tmp_path / "g1.bvh")]) != 0
-    assert "BVH export writes the humanoid3d's skeleton; a g1 rollout goes to --motion" in capsys.readouterr().err
     from services.render.gl import select_backend
 
     try:
@@ -130,6 +128,35 @@ def test_export_onnx_and_render_of_a_g1_run(g1_run, tmp_path, capsys):
     summary = json.loads(capsys.readouterr().out)
     assert summary["motion"] == "deepmimic:walk_g1" and summary["frames"] >= 2 and video.stat().st_size > 0
     assert json.loads((g1_run / CONFIG_FILE).read_text())["env"]["character"] == "g1"
+
+
+@needs_g1
+def test_export_bvh_of_a_g1_run_puts_the_rollout_on_the_robots_bodies(g1_run, tmp_path, capsys):
+    """The same rollout as --motion's robot motion file, as BVH: its forward kinematics are MuJoCo's body positions."""
+    import mujoco
+    import numpy as np
+
+    from actors.character.g1 import G1Model
+    from actors.motion.formats.bvh import read_bvh, yup_to_zup_vec
+    from actors.motion.formats.bvh_pose import bvh_forward_kinematics
+    from actors.motion.formats.robot_bvh import robot_motion_qpos
+    from actors.motion.robot_motion import load_robot_motion
+
+    npz, bvh_path = tmp_path / "roll_g1.npz", tmp_path / "roll_g1.bvh"
+    assert main(["export", str(g1_run), "--motion", str(npz), "--bvh", str(bvh_path), "--seconds", "0.5", "--units", "m"]) == 0
+    written = json.loads(capsys.readouterr().out)["rollouts"][0]
+    assert written["bvh"] == str(bvh_path) and sorted(p.name for p in tmp_path.iterdir()) == ["roll_g1.bvh", "roll_g1.npz"]
+    bvh, recorded = read_bvh(bvh_path), load_robot_motion(npz, "g1")
+    assert len(bvh.frames) == recorded.num_frames == written["frames"] and bvh.frame_time == pytest.approx(1 / 30.0)
+    assert bvh.joints[0].name == "pelvis" and len(bvh.joints) == 30 and bvh.frames.shape[1] == 6 + 3 * 29
+    positions = yup_to_zup_vec(bvh_forward_kinematics(bvh)[0])  # metres (--units m)
+    g1 = G1Model()
+    _, qpos = robot_motion_qpos(recorded, g1)
+    data = mujoco.MjData(g1.model)
+    for frame in range(recorded.num_frames):
+        data.qpos[:] = qpos[frame]
+        mujoco.mj_kinematics(g1.model, data)
+        assert np.abs(positions[frame] - data.xpos[np.sort(g1.body_ids)]).max() < 1e-5
 
 
 @needs_g1
