@@ -1,8 +1,9 @@
 """The Character interface: the simulated body an env puts in an arena.
 
 A character describes itself (links, joints, their PD gains and torque limits, end effectors,
-the links always allowed on the ground, its left/right mirror map, the imitation reward's
-per-joint weights, and the sizes of its own coordinates: qpos, qvel, actuators) and builds its
+the links always allowed on the ground, its left/right mirror map and hinge mirror signs, the
+imitation reward's per-joint weights, and the sizes of its own coordinates: qpos, qvel,
+actuators) and builds its
 MuJoCo model in an arena (`build(physics, arena)`: the compiled character with its bodies'
 ids and each joint's qpos / DoF addresses, `joint_qpos_adr`, `joint_dof_adr`). An arena's
 props come after the character's own coordinates, so `qpos[:nq]`, `qvel[:nv]` and `ctrl[:nu]`
@@ -42,6 +43,9 @@ class Character(Protocol):
     fall_contact_geoms: tuple[str, ...]  # the torso's and head's geoms (the compiled model's `fall_geom_ids`)
     link_mirror: np.ndarray  # link -> its left/right partner
     joint_mirror: np.ndarray  # joint -> its partner
+    # (joints,) +1 / -1: a mirrored hinge angle is sign x its partner's (ball joints +1, mirrored as
+    # quaternions); checked against the model's hinge axes by `mirror.derive_hinge_mirror_signs`
+    joint_mirror_sign: np.ndarray
     reward_joint_weights: dict[str, float]  # the imitation reward's per-joint weights, by link name
 
     def mjcf(self, physics, arena=None) -> str:

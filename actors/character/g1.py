@@ -1,6 +1,6 @@
 """g1: the Unitree G1 (29 DoF) as a `Character` (`actors/character/base.py`).
 
-Its numbers live in `g1_spec.py` (joints, limits, motors, PD gains, key bodies, mirror map,
+Its numbers live in `g1_spec.py` (joints, limits, motors, PD gains, key bodies, mirror map and signs,
 reward weights), its model files and MJCF in `g1_model.py` (the cached Unitree MJCF, `sfv models
 fetch --robot g1`, composed with our actuators and an arena); this module gathers them behind the
 interface and holds the compiled model, `G1Model` (a `CompiledCharacter`, as the humanoid's

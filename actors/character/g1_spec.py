@@ -146,8 +146,13 @@ def _partner(name: str) -> str:
 
 LINK_MIRROR = np.array([LINK_NAMES.index(_partner(n)) for n in LINK_NAMES])
 JOINT_MIRROR = np.array([JOINT_NAMES.index(_partner(n)) for n in JOINT_NAMES])
-# Reflecting through the sagittal (x-z) plane keeps rotations about y (pitch) and flips those
-# about x (roll) and z (yaw): a mirrored joint angle is sign * the partner's angle.
+# The G1 faces +x with its left at +y, so its sagittal plane is the world's x-z plane, and
+# reflecting in it, S R(a, theta) S = R(-S a, theta), keeps the angle of a hinge whose partner's
+# axis is -S a (pitch, knees, elbows: along y) and flips it where the axis is S a (roll and yaw:
+# in the plane): a mirrored joint angle is sign * the partner's angle. This table is what the
+# mirror maps read; `actors/character/mirror.derive_hinge_mirror_signs` reads the same signs off
+# the compiled model's world hinge axes at the zero pose (the shoulders' and hips' tilted axes
+# included), and the mirror maps refuse to build where the two disagree.
 JOINT_MIRROR_SIGN = np.array([1.0 if "pitch" in n or "knee" in n or "elbow" in n else -1.0 for n in JOINT_NAMES])
 
 # The imitation reward's weights by link (the humanoid's DeepMimic weights spread over the

@@ -36,6 +36,7 @@ class Humanoid3D:
     fall_contact_geoms = tuple(f"{skeleton.LINK_NAMES[i]}_geom" for i in skeleton.FALL_CONTACT_LINKS)  # one geom a link
     link_mirror = skeleton.LINK_MIRROR
     joint_mirror = skeleton.JOINT_MIRROR
+    joint_mirror_sign = np.ones(len(skeleton.JOINT_NAMES))  # its hinges turn about (0, -1, 0), in the sagittal plane: the same angle
     reward_joint_weights = skeleton.DEEPMIMIC_JOINT_WEIGHTS
 
     def mjcf(self, physics: PhysicsConfig = PhysicsConfig(), arena=None) -> str:

@@ -2,15 +2,21 @@
 
 NPMP (004 §3.2-3.3) distils one expert per clip; mirrored clips double the data for free
 when the body is symmetric. Every map here reads the character's mirror maps (`link_mirror`,
-`joint_mirror`) and joint kinds; humanoid3d is symmetric: in the Z-up frame of `skeleton.py` the
-character faces +x with its right side at -y, every left link is its right partner's
-reflection in the sagittal (x-z) plane (offsets, geoms, masses, gains), and the joint limits
-reflect into each other (checked in `tests/actors/character/test_mirror.py`). The reflection S = diag(1, -1, 1)
-acts on
+`joint_mirror`, `joint_mirror_sign`) and joint kinds. Both bodies face +x with their right side
+at -y and Z up, so their sagittal plane is the world's x-z plane: humanoid3d (the frame of
+`skeleton.py`) has every left link its right partner's reflection in it (offsets, geoms, masses,
+gains) and the joint limits reflect into each other (`tests/actors/character/test_mirror.py`); the
+Unitree G1's MJCF is symmetric to 1e-5 m (`tests/actors/character/test_g1_mirror.py`). The
+reflection S = diag(1, -1, 1) acts on
 - positions and linear velocities (polar vectors): (x, y, z) -> (x, -y, z);
 - rotations R -> S R S, i.e. quaternions (w, x, y, z) -> (w, -x, y, -z), and rotation vectors
   or angular velocities (axial vectors) -> (-x, y, -z);
-- hinges (axis (0, -1, 0), in the plane): the same angle;
+- hinges: S R(a, theta) S = R(-S a, theta), so a hinge's mirrored angle is its partner's times
+  `joint_mirror_sign`: +1 when the partner's axis is -S a (humanoid3d's knees and elbows, axis
+  (0, -1, 0) in the plane; the G1's pitch hinges, knees and elbows), -1 when it is S a (the G1's
+  roll and yaw hinges). `derive_hinge_mirror_signs` reads them off the compiled model (world
+  axes at the zero pose) and `state_mirror` / `observation_mirror` check the declared ones
+  against it;
 and swaps each left link with its right partner. Every map here is a signed permutation of
 the numbers it acts on, so it is exact, linear and its own inverse (an involution).
 
@@ -23,17 +29,29 @@ from __future__ import annotations
 
 import numpy as np
 
+import mujoco
+
 from actors.character.features import REFERENCE_OBS_WIDTH, obs_dim, pose_obs_width
 from actors.character.humanoid3d import HUMANOID3D
+from learner.errors import SfvError
 
 MIRROR_SUFFIX = "_mirror"
 POLAR = np.array([1.0, -1.0, 1.0])  # positions, linear velocities
 AXIAL = np.array([-1.0, 1.0, -1.0])  # rotation vectors, angular velocities
 QUAT = np.array([1.0, -1.0, 1.0, -1.0])  # (w, x, y, z) of S R S
+AXIS_TOLERANCE = 1e-6  # a partner's world hinge axis must be +-S a to this (unit vectors)
+FRAME_TOLERANCE = 1e-6  # partner links' rest orientations: R' = S R S to this (rotation matrix entries)
+POSITION_TOLERANCE_M = 1e-3  # partner links' rest positions: x' = S x to this (the G1's MJCF: 1e-5 m)
 
 
-def mirrored_name(name: str) -> str:
-    """'walk' -> 'walk_mirror' and back (mirroring twice is the original)."""
+def mirrored_name(name: str, character: str | None = None) -> str:
+    """'walk' -> 'walk_mirror' and back (mirroring twice is the original). With `character`, a
+    name ending in `_<character>` (a clip retargeted onto that body) keeps its suffix last, as
+    the retargeting of a mirrored clip names it: 'deepmimic:walk_g1' <-> 'deepmimic:walk_mirror_g1'
+    (what `actors/envs/falls.clip_key` reads back to the clip)."""
+    body = f"_{character}" if character else ""
+    if body and name.endswith(body) and len(name) > len(body):
+        return mirrored_name(name[: -len(body)]) + body
     return name[: -len(MIRROR_SUFFIX)] if name.endswith(MIRROR_SUFFIX) else name + MIRROR_SUFFIX
 
 
@@ -67,16 +85,112 @@ class SignedPermutation:
         return cls(source, sign)
 
 
+def mirror_signs(character) -> np.ndarray:
+    """(joints,) the character's `joint_mirror_sign` (a mirrored hinge angle is sign x its
+    partner's; ball joints +1); an SfvError in one line for a body that declares none."""
+    signs = getattr(character, "joint_mirror_sign", None)
+    if signs is None:
+        raise SfvError(f"the {character.name} declares no hinge mirror signs (joint_mirror_sign): it cannot be mirrored")
+    signs = np.asarray(signs, dtype=np.float64)
+    if signs.shape != (len(character.joint_names),) or not np.all(np.abs(signs) == 1.0):
+        raise SfvError(f"the {character.name}'s joint_mirror_sign must be +1 or -1 per joint ({len(character.joint_names)})")
+    return signs
+
+
+def can_mirror(character) -> bool:
+    """Whether the character declares its mirror maps and hinge mirror signs."""
+    return all(getattr(character, key, None) is not None for key in ("link_mirror", "joint_mirror", "joint_mirror_sign"))
+
+
+def _rest_kinematics(compiled) -> mujoco.MjData:
+    """The compiled character at its zero pose (root at the origin's vertical, unrotated; every
+    joint at zero), which is its own mirror image whatever the signs."""
+    model = compiled.model
+    data = mujoco.MjData(model)
+    data.qpos[:] = model.qpos0
+    data.qpos[:2] = 0.0
+    data.qpos[3:7] = (1.0, 0.0, 0.0, 0.0)
+    mujoco.mj_kinematics(model, data)
+    return data
+
+
+def _joint_ids(compiled) -> np.ndarray:
+    m = compiled.model
+    return np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name) for name in compiled.character.joint_names])
+
+
+def mirror_asymmetry(compiled) -> dict:
+    """How far the compiled character is from its mirror image at the zero pose: the largest
+    |x_partner - S x| of the links' world positions (m), |R_partner - S R S| of their
+    orientations, and of each hinge's world axis from +-S a, with the links / joint named."""
+    character, data = compiled.character, _rest_kinematics(compiled)
+    ids, partner = compiled.body_ids, np.asarray(character.link_mirror)
+    pos = np.abs(data.xpos[ids[partner]] - data.xpos[ids] * POLAR).max(axis=1)
+    rot = data.xmat[ids].reshape(-1, 3, 3)
+    frame = np.abs(rot[partner] - POLAR[:, None] * rot * POLAR).max(axis=(1, 2))
+    axis = np.zeros(len(character.joint_names))
+    hinges = np.flatnonzero(~np.asarray(character.joint_is_spherical))
+    jid = _joint_ids(compiled)
+    for j in hinges:
+        reflected, theirs = POLAR * data.xaxis[jid[j]], data.xaxis[jid[character.joint_mirror[j]]]
+        axis[j] = min(np.abs(theirs - reflected).max(), np.abs(theirs + reflected).max())
+    return {"link_position_m": float(pos.max()), "link_position_link": character.link_names[int(pos.argmax())],
+            "link_frame": float(frame.max()), "link_frame_link": character.link_names[int(frame.argmax())],
+            "hinge_axis": float(axis.max()), "hinge_axis_joint": character.joint_names[int(axis.argmax())]}
+
+
+def derive_hinge_mirror_signs(compiled) -> np.ndarray:
+    """(joints,) the mirror sign of each joint, read off the compiled model: at the zero pose
+    (its own mirror image) the world axis a' of hinge j's partner is compared with S a, S the
+    reflection in the x-z plane: S R(a, theta) S = R(-S a, theta), so the mirrored angle is
+    -theta where a' = S a and +theta where a' = -S a. Ball joints: +1 (mirrored as quaternions).
+    A hinge whose partner's axis is neither, partner links whose rest frames do not reflect
+    into each other, or partners further apart than POSITION_TOLERANCE_M from each other's
+    reflection (not a symmetric body) are an SfvError naming the joint or link."""
+    character, data = compiled.character, _rest_kinematics(compiled)
+    found = mirror_asymmetry(compiled)
+    if found["link_position_m"] > POSITION_TOLERANCE_M or found["link_frame"] > FRAME_TOLERANCE:
+        raise SfvError(f"the {character.name} is not left/right symmetric in the x-z plane: {found['link_position_link']} is "
+                       f"{found['link_position_m']:.3g} m and {found['link_frame_link']}'s frame {found['link_frame']:.3g} "
+                       "from its partner's reflection")
+    signs = np.ones(len(character.joint_names))
+    jid = _joint_ids(compiled)
+    for j in np.flatnonzero(~np.asarray(character.joint_is_spherical)):
+        p = character.joint_mirror[j]
+        reflected, theirs = POLAR * data.xaxis[jid[j]], data.xaxis[jid[p]]
+        if np.abs(theirs - reflected).max() <= AXIS_TOLERANCE:
+            signs[j] = -1.0
+        elif np.abs(theirs + reflected).max() > AXIS_TOLERANCE:
+            raise SfvError(f"the {character.name}'s {character.joint_names[j]} (axis {np.round(data.xaxis[jid[j]], 6).tolist()}) "
+                           f"does not reflect onto {character.joint_names[p]}'s axis {np.round(theirs, 6).tolist()}: "
+                           "not a symmetric body")
+    return signs
+
+
+def check_mirror_signs(compiled) -> np.ndarray:
+    """The declared `joint_mirror_sign`, checked against the compiled model
+    (`derive_hinge_mirror_signs`); a disagreement is an SfvError naming the joints."""
+    character = compiled.character
+    declared, derived = mirror_signs(character), derive_hinge_mirror_signs(compiled)
+    wrong = [character.joint_names[j] for j in np.flatnonzero(declared != derived)]
+    if wrong:
+        raise SfvError(f"the {character.name}'s joint_mirror_sign disagrees with its model's hinge axes at {', '.join(wrong)}")
+    return declared
+
+
 def state_mirror(humanoid) -> tuple[SignedPermutation, SignedPermutation]:
-    """(qpos map, qvel map) of MuJoCo's state vectors for this built character's joint addresses."""
+    """(qpos map, qvel map) of MuJoCo's state vectors for this built character's joint
+    addresses: the root reflected, ball joints as quaternions / axial vectors, hinges their
+    partner's angle and rate times the joint's mirror sign (checked against the model)."""
     qadr, dadr = humanoid.joint_qpos_adr, humanoid.joint_dof_adr
     character = humanoid.character
+    signs = check_mirror_signs(humanoid)
     qpos_blocks = [(0, 0, POLAR), (3, 3, QUAT)]
     qvel_blocks = [(0, 0, POLAR), (3, 3, AXIAL)]
     for j, ball in enumerate(character.joint_is_spherical):
         p = character.joint_mirror[j]
-        qpos_blocks.append((qadr[j], qadr[p], QUAT if ball else np.ones(1)))
-        qvel_blocks.append((dadr[j], dadr[p], AXIAL if ball else np.ones(1)))
+        qpos_blocks.append((qadr[j], qadr[p], QUAT if ball else signs[j:j + 1]))
+        qvel_blocks.append((dadr[j], dadr[p], AXIAL if ball else signs[j:j + 1]))
     return SignedPermutation.from_blocks(humanoid.nq, qpos_blocks), SignedPermutation.from_blocks(humanoid.nv, qvel_blocks)
 
 
@@ -84,15 +198,16 @@ def action_mirror(parameterisation: str = "exp_map", character=HUMANOID3D) -> Si
     """Map of the policy's action vector (`actions.py` layout: the spherical joints, then
     the revolute). exp_map: a rotation vector per ball joint (axial); axis_angle: (angle,
     axis), the angle kept and the axis axial. With exp_map (nu entries) this is also the map
-    of the PD targets (MuJoCo ctrl / actuator lengths). The per-axis action scales and joint
-    limits of partners mirror into each other, so scaling and clipping commute with it."""
+    of the PD targets (MuJoCo ctrl / actuator lengths). A hinge's entry is its partner's times
+    the joint's mirror sign. The per-axis action scales and joint limits of partners mirror into
+    each other (reflected by the sign), so scaling and clipping commute with it."""
     width, signs = (4, np.concatenate(([1.0], AXIAL))) if parameterisation == "axis_angle" else (3, AXIAL)
     balls = np.flatnonzero(character.joint_is_spherical).tolist()
     hinges = np.flatnonzero(~character.joint_is_spherical).tolist()
-    partner = character.joint_mirror
+    partner, hinge_sign = character.joint_mirror, mirror_signs(character)
     blocks = [(width * s, width * balls.index(partner[j]), signs) for s, j in enumerate(balls)]
     base = width * len(balls)
-    blocks += [(base + r, base + hinges.index(partner[j]), np.ones(1)) for r, j in enumerate(hinges)]
+    blocks += [(base + r, base + hinges.index(partner[j]), hinge_sign[j:j + 1]) for r, j in enumerate(hinges)]
     return SignedPermutation.from_blocks(base + len(hinges), blocks)
 
 
@@ -100,8 +215,11 @@ def observation_mirror(humanoid, reference_steps: int, pose_steps: int = 0) -> S
     """Map of `FeatureExtractor.observations` (height, link positions, rotations, linear
     and angular velocities in the heading frame, K reference roots, phase), followed by
     `pose_steps` reference poses (`actors/envs/reference_obs.py`: height, link positions). Links
-    there are in MuJoCo body order (bodies 1..n), not skeleton order."""
+    there are in MuJoCo body order (bodies 1..n), not skeleton order. Hinge angles are not
+    observed (link rotations are), but the character's mirror signs are checked against its
+    model here too: the map is right only for a body that is its own mirror image."""
     character = humanoid.character
+    check_mirror_signs(humanoid)
     body_row = humanoid.body_ids - 1  # skeleton link -> its row in the observation's link blocks
     n, k = character.num_links, int(reference_steps)
     row_partner = np.empty(n, dtype=np.int64)
@@ -124,16 +242,25 @@ def observation_mirror(humanoid, reference_steps: int, pose_steps: int = 0) -> S
     return SignedPermutation.from_blocks(size + pose_width * int(pose_steps), blocks)
 
 
-def mirror_motion(motion, character=HUMANOID3D):
+def mirror_motion(motion, character=None):
     """The clip (a `ReferenceMotion`) reflected in the world's x-z plane, left and right swapped, named
-    `<name>_mirror` (or back to `<name>`). Timing and looping are the original's; extras
+    `<name>_mirror` (or back to `<name>`), in the same body's pose space (`character`: the
+    registered one `motion.character` names when not given). Joint rotations are local, so each
+    is S R S of its partner's: a robot's hinge stored as a rotation about its axis comes out as
+    the rotation about the partner's axis by sign x the angle (the partners' rest frames reflect
+    into each other, `derive_hinge_mirror_signs`). Timing and looping are the original's; extras
     (keypoints, camera tracks of a video reconstruction) are dropped, since they describe
     the original images."""
+    if character is None:
+        from actors.character.characters import character_named
+
+        character = character_named(motion.character)
     return type(motion)(
-        name=mirrored_name(motion.name),
+        name=mirrored_name(motion.name, motion.character),
         frame_times=motion.frame_times.copy(),
         root_pos=motion.root_pos * POLAR,
         root_rot=motion.root_rot * QUAT,
         joint_rot=motion.joint_rot[:, character.joint_mirror] * QUAT,
         loop=motion.loop,
+        character=motion.character,
     )

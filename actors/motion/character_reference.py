@@ -6,16 +6,19 @@ reconstruction: `formats/io.py`) for humanoid3d, a robot motion file (`robot_mot
 answers the character's `ReferenceMotion`: its own clip as it is, a robot file as the robot's
 reference (`robot_reference.py`), and a humanoid clip for a robot retargeted onto it once, here,
 by the retargeter registered for that robot (`RETARGETERS`; the G1's is `robot_retarget.py`),
-said in one log line. `load_reference` reads a motion name or file for a character.
+said in one log line. `load_reference` reads a motion name or file for a character (`FILE_mirror`
+of a robot motion file FILE: that motion mirrored, `robot_motion.mirror_robot_motion`).
 A new robot registers its retargeter here beside its `Character` (`actors/character/characters.py`).
 """
 from __future__ import annotations
 
 import logging
 from collections.abc import Callable
+from pathlib import Path
 
 from actors.motion.reference_motion import MotionFormatError, ReferenceMotion
-from actors.motion.robot_motion import RobotMotion, is_robot_motion, load_robot_motion
+from actors.character.mirror import MIRROR_SUFFIX
+from actors.motion.robot_motion import RobotMotion, is_robot_motion, load_robot_motion, mirror_robot_motion
 from actors.motion.robot_reference import robot_reference
 
 log = logging.getLogger("sfv.motion")
@@ -60,4 +63,8 @@ def load_reference(name_or_path: str, character) -> ReferenceMotion:
 
     if is_robot_motion(name_or_path):
         return reference_for(load_robot_motion(name_or_path, character.name), character)
+    original = str(name_or_path).removesuffix(MIRROR_SUFFIX)
+    if original != str(name_or_path) and not Path(name_or_path).exists() and is_robot_motion(original):
+        # FILE_mirror of a robot motion file: the file mirrored (as `load_motion` does a humanoid clip's)
+        return reference_for(mirror_robot_motion(load_robot_motion(original, character.name)), character)
     return reference_for(load_motion(name_or_path), character)

@@ -100,6 +100,31 @@ def validate(motion: RobotMotion, path="robot motion", joint_names: tuple[str, .
                               f"outside its limits [{limits[joint, 0]:.4f}, {limits[joint, 1]:.4f}]")
 
 
+def mirror_robot_motion(motion: RobotMotion, character=None) -> RobotMotion:
+    """The motion reflected in the robot's sagittal plane (the world's x-z plane), left and right
+    swapped (`actors/character/mirror.py`): root position (x, -y, z), root orientation S R S
+    (quaternion (w, -x, y, -z)), each hinge its partner's angle times the joint's mirror sign
+    (`joint_mirror_sign`), the feet's contacts swapped; named `<name>_mirror` (and back; a
+    retargeted clip's `<clip>_g1` becomes `<clip>_mirror_g1`, `mirror.mirrored_name`), its source
+    likewise. `character` defaults to the registered body the motion names. Mirroring
+    twice is the original, exactly."""
+    from actors.character.mirror import POLAR, QUAT, mirror_signs, mirrored_name
+
+    if character is None:
+        from actors.character.characters import character_named
+
+        character = character_named(motion.character)
+    if motion.character != character.name or tuple(motion.joint_names) != tuple(character.joint_names):
+        raise MotionFormatError(f"{motion.source or motion.name}: a motion of the {motion.character}'s "
+                                f"{len(motion.joint_names)} joints, not of the {character.name}'s")
+    signs, partner = mirror_signs(character), np.asarray(character.joint_mirror)
+    name, source = mirrored_name(motion.name, motion.character), motion.source
+    return RobotMotion(motion.character, name, mirrored_name(source, motion.character) if source else source,
+                       motion.fps, motion.loop, tuple(motion.joint_names), np.asarray(motion.root_pos) * POLAR,
+                       np.asarray(motion.root_quat) * QUAT, np.asarray(motion.joint_pos)[:, partner] * signs,
+                       None if motion.contacts is None else np.asarray(motion.contacts)[:, ::-1].copy())
+
+
 def save_robot_motion(motion: RobotMotion, path: str | os.PathLike) -> Path:
     validate(motion)
     path = Path(path)

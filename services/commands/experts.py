@@ -6,7 +6,7 @@
 
 CLIPS are DeepMimic clip names, `<clip>_mirror` (served by symmetry, not trained) or `all`.
 --character g1 trains them on the Unitree G1 (the clips retargeted at load); an experts
-directory holds one body's experts, and mirrored experts are the humanoid3d's only for now.
+directory holds one body's experts; mirrored experts act through their original's on either body.
 """
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ def register(sub) -> None:
                              "       sfv experts render DIR CLIP --video FILE.mp4 [--seconds T]",
                        description="Tracking experts (NPMP, 004 §3.2): one standard run directory DIR/<clip>/ per clip, "
                                    "finished clips skipped, partial ones resumed; <clip>_mirror comes from <clip>'s expert by "
-                                   "left/right symmetry (humanoid3d experts only); `all` is every DeepMimic clip and its mirror. "
+                                   "left/right symmetry (on either body); `all` is every DeepMimic clip and its mirror. "
                                    "--character g1 trains the experts on the Unitree G1 (a directory holds one body's experts). "
                                    "`table DIR` writes "
                                    "DIR/experts.json, experts.md and the Fig. 3B plot experts_tracking.png.")
@@ -35,7 +35,8 @@ def register(sub) -> None:
     p.add_argument("--out", default=None, help="experts directory (one run directory per clip)")
     p.add_argument("--character", default=HUMANOID, choices=CHARACTER_NAMES,
                    help="the body every expert of --out trains (default humanoid3d; g1: the Unitree G1, `sfv models fetch --robot g1`, "
-                        "the clips retargeted at load, no <clip>_mirror); a directory of the other body's experts is refused")
+                        "the clips retargeted at load, <clip>_mirror by the G1's hinge mirror signs); "
+                        "a directory of the other body's experts is refused")
     p.add_argument("--samples", type=int, default=DEFAULT_SAMPLES, help="sample budget of each training (a clip with that many is finished)")
     p.add_argument("--curriculum-samples", type=int, default=None, help="episode-length curriculum of new trainings (default: half the budget)")
     p.add_argument("--parallel", type=int, default=None, help="trainings (or evaluations) at once, one core each (default: every core)")
@@ -72,7 +73,7 @@ def run(args) -> int:
     if args.clips[0] == "table":
         if len(args.clips) < 2:
             raise SfvError("sfv experts table: give the experts directory (sfv experts table DIR [CLIP...])")
-        # The body is the runs' own (config.json): `all` of a G1 directory has no mirrors, a named one is refused.
+        # The body is the runs' own (config.json): a mirror is refused only for a body without hinge mirror signs.
         found = directory_character(args.clips[1])
         clips = expand_clips(args.clips[2:], found[0] if found else HUMANOID) if len(args.clips) > 2 else None
         print(markdown_table(build_table(args.clips[1], clips, **table_args)), end="")

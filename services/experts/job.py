@@ -16,9 +16,9 @@ The body (`character`, `--character humanoid3d|g1`) is the template's `env.chara
 run's config.json remembers it, so `sfv eval` / `render` of an expert build that body. A
 humanoid clip trains on the G1 retargeted at load (`actors/motion/character_reference.py`). An
 experts directory holds one body's experts: extending or resuming a directory of one with the
-other is refused in one line naming `--character` and the directory. Mirrored experts are the
-humanoid3d's only for now (`mirrored_expert.py`): for the G1, `all` is every clip without its
-mirror and a `<clip>_mirror` is refused.
+other is refused in one line naming `--character` and the directory. Mirrored experts come by
+symmetry for both bodies (`mirrored_expert.py`; the G1's hinge mirror signs are read off its
+model), so `all` is every clip and its mirror for the G1 too.
 
 Robustness to action noise (004 §3.2: sigma = .1 per actuator on [-1, 1] actions) needs no
 extra setting: PPO explores with a fixed Gaussian action std of 0.1 in the env's normalised
@@ -53,8 +53,8 @@ POLL_S = 2.0
 # ----------------------------------------------------------------------------- clip lists
 def expand_clips(names: list[str], character: str = HUMANOID) -> list[str]:
     """Clip names in order, duplicates dropped; `all` = every clip and its mirror (a body
-    without mirrored experts: every clip). A name is a DeepMimic clip or `<clip>_mirror`;
-    anything else is an SfvError naming it, and so is a mirror for such a body."""
+    without hinge mirror signs, none registered now: every clip). A name is a DeepMimic clip or
+    `<clip>_mirror`; anything else is an SfvError naming it, and so is a mirror for such a body."""
     mirrors = character in MIRROR_CHARACTERS
     clips: list[str] = []
     for name in names:

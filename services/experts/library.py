@@ -3,9 +3,9 @@ run directory; `<clip>_mirror` is served by symmetry from `DIR/<clip>/`.
 
 The character (`EnvConfig.character`, `--character`) is part of what an experts directory is:
 every run in it trains the same body, which its config.json remembers (`run_character`,
-`directory_character`). Mirrored experts are the humanoid3d's only for now (`check_mirror`:
-the G1's hinge mirror signs are not verified), and so is the motor module that distils
-experts (`sfv distill`, `sfv one-shot`: its dataset has the humanoid's sizes,
+`directory_character`). Mirrored experts are any body's that declares its hinge mirror signs
+(humanoid3d and the G1, `check_mirror`); the motor module that distils experts is the
+humanoid3d's only for now (`sfv distill`, `sfv one-shot`: its dataset has the humanoid's sizes,
 `services/motor/dataset.py`; `humanoid_experts_only`)."""
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ __all__ = ["MIRROR_CHARACTERS", "check_mirror", "directory_character", "humanoid
 
 def load_expert(experts_dir: str | Path, clip: str, max_batch: int = 64) -> Expert:
     """The expert for `clip` in an experts directory: `DIR/<clip>/` (a run directory), or for
-    `<clip>_mirror` the mirrored expert of `DIR/<clip>/` (humanoid3d experts only)."""
+    `<clip>_mirror` the mirrored expert of `DIR/<clip>/` (on that run's body)."""
     experts_dir = Path(experts_dir)
     if clip.endswith(MIRROR_SUFFIX):
         original = clip[: -len(MIRROR_SUFFIX)]

@@ -13,7 +13,8 @@ Per expert (a trained `DIR/<clip>/` and, by symmetry, `<clip>_mirror`):
   over the starts still running.
 Each row is measured on its run's body (config.json's `env.character`: the humanoid3d's 12
 joints and 4 end effectors, or the G1's 29 hinges and its ankle-roll and wrist-yaw links),
-through the env's own reward layout; a G1 directory has no mirrored rows.
+through the env's own reward layout; a mirrored row acts on its original's body (the G1's
+mirrored experts by its hinge mirror signs, `actors/character/mirror.py`).
 Deviation: 004's tracking error is its reward's energy (joint angles, velocities, appendages,
 ...); here the two errors are the evaluation's, which a reader can interpret in rad and m.
 
@@ -116,7 +117,7 @@ def evaluate_expert(experts_dir: str, clip: str, episodes: int = DEFAULT_EPISODE
 
 def table_clips(experts_dir: Path, mirrors: bool = True) -> list[str]:
     """Every clip with a trained expert in the directory (a subdirectory with a checkpoint),
-    each followed by its mirror when its body has mirrored experts (the humanoid3d's)."""
+    each followed by its mirror when its body has mirrored experts (humanoid3d's and the G1's)."""
     from services.experts.library import MIRROR_CHARACTERS, run_character
     from services.training.run_dir import checkpoint_files
 

@@ -1,12 +1,14 @@
 """`sfv experts --character g1`: tracking experts on the Unitree G1, one body per experts
-directory, no mirrored G1 experts, and no G1 experts for the motor module.
+directory, mirrored G1 experts by the G1's hinge mirror signs (`actors/character/mirror.py`),
+and no G1 experts for the motor module.
 
 The tiny G1 training needs the G1's cached model (`sfv models fetch --robot g1`) and skips
-without it; the refusals read config.json files only and run anywhere."""
+without it; the clip lists and refusals read config.json files only and run anywhere."""
 from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from actors.character import g1_model
@@ -27,36 +29,43 @@ def one_line(exc: pytest.ExceptionInfo) -> str:
     return text
 
 
-def test_mirrored_g1_experts_are_refused_and_all_has_no_mirrors(tmp_path, capsys):
+def test_g1_clip_lists_have_mirrors_and_a_body_without_signs_is_refused():
     from actors.motion.formats.io import DEEPMIMIC_CLIPS
-    from services.cli import main
+    from services.experts.library import MIRROR_CHARACTERS, check_mirror
 
-    assert expand_clips(["all"], "g1") == list(DEEPMIMIC_CLIPS)
-    assert expand_clips(["walk"], "g1") == ["walk"]
-    with pytest.raises(SfvError, match="walk_mirror: mirrored experts are humanoid3d-only for now, not the g1's") as exc:
-        expand_clips(["walk", "walk_mirror"], "g1")
+    assert MIRROR_CHARACTERS == ("humanoid3d", "g1")
+    assert expand_clips(["all"], "g1") == expand_clips(["all"]) == [c for clip in DEEPMIMIC_CLIPS for c in (clip, clip + "_mirror")]
+    assert expand_clips(["walk", "walk_mirror", "kick_mirror"], "g1") == ["walk", "walk_mirror", "kick_mirror"]
+    check_mirror("walk_mirror", "g1")
+    with pytest.raises(SfvError, match="walk_mirror: mirrored experts are for humanoid3d, g1, not the atlas "
+                                       r"\(it declares no hinge mirror signs\)") as exc:
+        check_mirror("walk_mirror", "atlas")
     one_line(exc)
-    out = tmp_path / "experts"
-    with pytest.raises(SfvError, match="kick_mirror: mirrored experts are humanoid3d-only"):
-        run_experts_job(["kick_mirror"], out, samples=128, parallel=1, template=tiny_template(128), progress=False, character="g1")
-    assert not out.exists()  # refused before anything is written
-    assert main(["experts", "run_mirror", "--character", "g1", "--out", str(out)]) == 2
-    assert "run_mirror: mirrored experts are humanoid3d-only for now" in capsys.readouterr().err
-    assert not out.exists()
 
 
-def test_a_mirror_of_a_g1_expert_is_refused_where_experts_are_loaded(tmp_path):
+@needs_g1
+def test_a_mirror_of_a_g1_expert_acts_through_the_g1_expert(tmp_path):
+    """A G1 run's files (no training): `walk_mirror` is a table row and loads as the mirrored
+    expert on the G1, its actions the mirror (hinges: the partner's times the sign) of the walk
+    expert's on the mirrored observation."""
+    from actors.character.characters import character_named
+    from actors.character.mirror import action_mirror, observation_mirror
     from services.experts.library import load_expert
-    from services.experts.table import build_table, table_clips
+    from services.experts.mirrored_expert import MirroredExpert
+    from services.experts.table import table_clips
 
     out = tmp_path / "experts"
-    make_tiny_run(out / "walk", env=EnvConfig(character="g1"))  # a G1 run's files, no training
-    assert table_clips(out) == ["walk"]  # no walk_mirror row for the G1
-    with pytest.raises(SfvError, match="walk_mirror: mirrored experts are humanoid3d-only for now, not the g1's") as exc:
-        load_expert(out, "walk_mirror")
-    one_line(exc)
-    with pytest.raises(SfvError, match="walk_mirror: mirrored experts are humanoid3d-only"):
-        build_table(out, clips=["walk", "walk_mirror"], episodes=1, starts=1, curve_seconds=0.1, progress=False)
+    make_tiny_run(out / "walk", env=EnvConfig(character="g1"))
+    assert table_clips(out) == ["walk", "walk_mirror"]
+    g1 = character_named("g1")
+    expert, mirrored = load_expert(out, "walk"), load_expert(out, "walk_mirror")
+    assert isinstance(mirrored, MirroredExpert) and mirrored.motion == "deepmimic:walk_mirror"
+    assert mirrored.env_config.character == "g1"
+    obs = np.random.default_rng(0).normal(size=(3, 406)).astype(np.float32)
+    observation_map = observation_mirror(g1.build(), 2)
+    actions = mirrored.act(observation_map(obs))
+    assert actions.shape == (3, g1.nu) and np.abs(actions).max() > 0.1
+    np.testing.assert_allclose(actions, action_mirror("exp_map", g1)(expert.act(obs)), atol=1e-6)
 
 
 @pytest.mark.parametrize("trained, asked", [("humanoid3d", "g1"), ("g1", "humanoid3d")])
@@ -93,15 +102,21 @@ def test_the_motor_module_refuses_g1_experts(tmp_path, capsys):
 
 
 @needs_g1
-def test_a_tiny_g1_expert_trains_and_its_table_row_reads_the_g1(tmp_path, monkeypatch):
+def test_a_tiny_g1_expert_trains_and_its_table_rows_read_the_g1(tmp_path, monkeypatch):
+    """walk trains on the G1; walk_mirror is not trained but acts through it, on
+    `deepmimic:walk_mirror` retargeted onto the G1 at load."""
     from actors.character.characters import character_named
+    from actors.character.mirror import action_mirror, state_mirror
     from services.experts import table as table_module
     from services.experts.library import load_expert
+    from services.experts.mirrored_expert import MirroredExpert
     from services.training import evaluation
 
     out = tmp_path / "experts"
-    summary = run_experts_job(["walk"], out, samples=2048, parallel=1, template=tiny_template(2048), progress=False, character="g1")
+    summary = run_experts_job(["walk", "walk_mirror"], out, samples=2048, parallel=1, template=tiny_template(2048),
+                              progress=False, character="g1")
     assert summary["character"] == "g1" and summary["status"]["walk"]["state"] == "trained"
+    assert summary["status"]["walk_mirror"] == {"state": "mirrored", "of": "walk"} and not (out / "walk_mirror").exists()
     assert samples_done(out / "walk") == 2048
     config = json.loads((out / "walk" / CONFIG_FILE).read_text())
     assert config["env"]["character"] == "g1" and config["motion"] == "deepmimic:walk"
@@ -110,6 +125,17 @@ def test_a_tiny_g1_expert_trains_and_its_table_row_reads_the_g1(tmp_path, monkey
     expert = load_expert(out, "walk", max_batch=1)
     env = expert.make_env()
     assert env.humanoid.character.name == "g1" and expert.act(env.reset(seed=0)[0][None]).shape == (1, g1.nu)
+    mirrored = load_expert(out, "walk_mirror", max_batch=1)
+    env_m = mirrored.make_env()  # the mirrored humanoid walk, retargeted onto the G1 at load
+    assert isinstance(mirrored, MirroredExpert) and env_m.humanoid.character is g1 and env_m.motion.name == "deepmimic:walk_mirror_g1"
+    # Retargeting the mirrored clip is mirroring the retargeted one, to the IK's tolerance.
+    qpos_map, _ = state_mirror(env.humanoid)
+    np.testing.assert_allclose(env_m.track.qpos, qpos_map(env.track.qpos), atol=1e-4)
+    obs, _ = env.reset(options={"init": "rsi", "phase": 0.3})
+    obs_m, _ = env_m.reset(options={"init": "rsi", "phase": 0.3})
+    action, action_m = expert.act(obs[None]), mirrored.act(obs_m[None])
+    assert action_m.shape == (1, g1.nu) and np.abs(action).max() > 0.01
+    np.testing.assert_allclose(action_m, action_mirror("exp_map", g1)(action), atol=1e-3)
 
     seen = []  # what the table's tracking curve compares: the G1's layout, not the humanoid's default
     original = evaluation.tracking_errors
@@ -120,13 +146,14 @@ def test_a_tiny_g1_expert_trains_and_its_table_row_reads_the_g1(tmp_path, monkey
 
     monkeypatch.setattr(evaluation, "tracking_errors", spy)
     table = table_module.build_table(out, episodes=1, starts=2, curve_seconds=0.3, progress=False)
-    assert [row["clip"] for row in table["experts"]] == ["walk"]  # no mirror for the G1
-    row = table["experts"][0]
-    assert row["character"] == "g1" and row["samples"] == 2048 and 0.0 <= row["normalized_return"] <= 1.0
-    assert row["joint_rotation_error_rad"] > 0.0 and row["end_effector_error_m"] > 0.0
-    assert all(v > 0.0 for v in row["curve"]["end_effector_error_m"])
+    assert [row["clip"] for row in table["experts"]] == ["walk", "walk_mirror"]  # the G1's mirror by symmetry
+    for row in table["experts"]:
+        assert row["character"] == "g1" and row["samples"] == 2048 and 0.0 <= row["normalized_return"] <= 1.0
+        assert row["joint_rotation_error_rad"] > 0.0 and row["end_effector_error_m"] > 0.0
+        assert all(v > 0.0 for v in row["curve"]["end_effector_error_m"])
+    assert table["experts"][1]["mirror_of"] == "walk" and table["experts"][1]["motion"] == "deepmimic:walk_mirror"
     hinges, effectors = g1.nu, len(g1.end_effector_links)
-    assert len(seen) >= 3 and set(seen) == {(hinges, effectors, hinges, effectors)}  # 29 hinges, 4 end effectors
+    assert len(seen) >= 6 and set(seen) == {(hinges, effectors, hinges, effectors)}  # 29 hinges, 4 end effectors
     assert "Experts (g1)" in (out / table_module.TABLE_MD).read_text()
 
     # Resumed or extended as the humanoid's: one line naming the flag and the directory.
