@@ -44,7 +44,7 @@ class Character(Protocol):
     link_mirror: np.ndarray  # link -> its left/right partner
     joint_mirror: np.ndarray  # joint -> its partner
     # (joints,) +1 / -1: a mirrored hinge angle is sign x its partner's (ball joints +1, mirrored as
-    # quaternions); checked against the model's hinge axes by `mirror.derive_hinge_mirror_signs`
+    # quaternions); checked against the model's hinge axes by `symmetry.derive_hinge_mirror_signs`
     joint_mirror_sign: np.ndarray
     reward_joint_weights: dict[str, float]  # the imitation reward's per-joint weights, by link name
 

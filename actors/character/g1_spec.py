@@ -150,7 +150,7 @@ JOINT_MIRROR = np.array([JOINT_NAMES.index(_partner(n)) for n in JOINT_NAMES])
 # reflecting in it, S R(a, theta) S = R(-S a, theta), keeps the angle of a hinge whose partner's
 # axis is -S a (pitch, knees, elbows: along y) and flips it where the axis is S a (roll and yaw:
 # in the plane): a mirrored joint angle is sign * the partner's angle. This table is what the
-# mirror maps read; `actors/character/mirror.derive_hinge_mirror_signs` reads the same signs off
+# mirror maps read; `actors/character/symmetry.derive_hinge_mirror_signs` reads the same signs off
 # the compiled model's world hinge axes at the zero pose (the shoulders' and hips' tilted axes
 # included), and the mirror maps refuse to build where the two disagree.
 JOINT_MIRROR_SIGN = np.array([1.0 if "pitch" in n or "knee" in n or "elbow" in n else -1.0 for n in JOINT_NAMES])

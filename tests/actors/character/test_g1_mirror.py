@@ -22,8 +22,8 @@ import pytest
 
 from actors.character import g1_model
 from actors.character import g1_spec as spec
-from actors.character.mirror import (POLAR, QUAT, action_mirror, check_mirror_signs, derive_hinge_mirror_signs,
-                                     mirror_asymmetry, mirror_motion, observation_mirror, state_mirror)
+from actors.character.mirror import POLAR, QUAT, action_mirror, mirror_motion, observation_mirror, state_mirror
+from actors.character.symmetry import check_mirror_signs, derive_hinge_mirror_signs, mirror_asymmetry
 from learner.errors import SfvError
 
 pytestmark = pytest.mark.skipif(not g1_model.model_available(), reason="G1 model not cached (sfv models fetch --robot g1)")
