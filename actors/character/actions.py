@@ -13,8 +13,10 @@ joint order (`Character.joint_names` filtered), the same order as its actuators 
   expected gradient on the 8 ball joints cancels and each step's noise throws the target in
   a random 3-D direction (DeepMimic's 2018 code offset the default axis to escape it).
 Targets are absolute (+-1 reaches the farther limit of each axis) or, with `residual_scale`,
-residual: reference target + residual_scale (rad) * action, the dynamic-camera paper's
-eq. 1 (the zero action then tracks the reference instead of straightening every joint).
+residual: reference target + residual_scale (rad) * factor * action, the dynamic-camera
+paper's eq. 1 (the zero action then tracks the reference instead of straightening every
+joint); `residual_factors` (nu,) widens or narrows each joint's range (a character with soft
+motors needs more radians for the same torque: `Character.residual_scale_factors`).
 Each target is then clipped to the joint's per-axis limits (Z-up axes).
 """
 from __future__ import annotations
@@ -27,7 +29,8 @@ ACTION_PARAMETERISATIONS = ("axis_angle", "exp_map")
 
 
 class ActionMapper:
-    def __init__(self, parameterisation: str = "exp_map", residual_scale: float | None = None, character=HUMANOID3D):
+    def __init__(self, parameterisation: str = "exp_map", residual_scale: float | None = None, character=HUMANOID3D,
+                 residual_factors: np.ndarray | None = None):
         if parameterisation not in ACTION_PARAMETERISATIONS:
             raise ValueError(f"action parameterisation must be one of {ACTION_PARAMETERISATIONS}, got {parameterisation!r}")
         if residual_scale is not None and (parameterisation != "exp_map" or not residual_scale > 0):
@@ -45,7 +48,10 @@ class ActionMapper:
         self.action_dim = self.sph_width + self.num_revolute
         assert self.sph_ctrl + self.num_revolute == character.nu
         if residual_scale is not None:
-            self.scale = np.full_like(self.scale, residual_scale)
+            factors = np.ones(character.nu) if residual_factors is None else np.asarray(residual_factors, dtype=np.float64)
+            if factors.shape != (character.nu,) or not np.all(factors > 0):
+                raise ValueError(f"residual factors must be {character.nu} positive numbers, got shape {factors.shape}")
+            self.scale = residual_scale * factors
         self._sph_scale, self._rev_scale = self.scale[:self.sph_ctrl].copy(), self.scale[self.sph_ctrl:].copy()
         self._targets = np.zeros(character.nu)
         self._scratch: tuple = (0,)  # (rows, clipped actions, their views, angles)

@@ -37,6 +37,9 @@ class Character(Protocol):
     kp: np.ndarray  # (joints,) PD gains
     kd: np.ndarray
     torque_limits: np.ndarray  # (joints,) N m
+    # (nu,) each actuator's residual action range in units of the env's residual_action_scale
+    # (humanoid3d: 1; a body with soft motors needs more radians for the same share of its torque)
+    residual_scale_factors: np.ndarray
     end_effector_links: np.ndarray  # link indices (the reward's end effectors)
     feet: tuple[str, ...]  # links always allowed on the ground (every clip's fall rule allows them)
     torso_links: np.ndarray  # link indices of the torso and head (a task's fall rule)

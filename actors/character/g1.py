@@ -33,6 +33,7 @@ class G1:
     kp = spec.KP
     kd = spec.KD
     torque_limits = spec.EFFORT_LIMITS
+    residual_scale_factors = spec.RESIDUAL_SCALE_FACTORS
     joint_limits = spec.JOINT_LIMITS
     armature = spec.ARMATURE
     end_effector_links = np.array([spec.LINK_NAMES.index(n) for n in spec.END_EFFECTORS])

@@ -92,6 +92,12 @@ EFFORT_LIMITS = np.array([MOTORS[j[3]].effort_limit for j in _JOINTS]) * _PARALL
 VELOCITY_LIMITS = np.array([MOTORS[j[3]].velocity_limit for j in _JOINTS])  # rad/s
 KP = ARMATURE * NATURAL_FREQUENCY ** 2  # N m / rad
 KD = 2.0 * DAMPING_RATIO * ARMATURE * NATURAL_FREQUENCY  # N m s / rad
+# Residual actions (reference target + 0.5 rad x factor x action): at these soft gains 0.5 rad is
+# 20 N m at a hip (kp 40) and 50 at a knee (kp 99), a quarter to a third of their motors' effort,
+# where the humanoid3d's 0.5 rad reaches 1-2.5x its own (kp 300-1000, 50-200 N m). A run's stance
+# knee alone needs more than 0.5 rad of lead. So each joint's range is effort / kp: the action's
+# +-1 reaches the motor's effort limit at rest (mjlab sizes its G1 actions from the same ratio).
+RESIDUAL_SCALE_FACTORS = EFFORT_LIMITS / KP / 0.5
 
 # Each hinge's axis in its body frame, as g1.xml has it: pitch (knees, elbows) y, roll x, yaw z.
 HINGE_AXES = np.array([(1.0, 0.0, 0.0) if "roll" in n else (0.0, 0.0, 1.0) if "yaw" in n else (0.0, 1.0, 0.0) for n in JOINT_NAMES])

@@ -30,6 +30,7 @@ class Humanoid3D:
     kp = np.array([skeleton.LINKS[i].kp for i in skeleton.JOINT_LINKS])
     kd = np.array([skeleton.LINKS[i].kd for i in skeleton.JOINT_LINKS])
     torque_limits = np.array([skeleton.LINKS[i].torque_limit for i in skeleton.JOINT_LINKS])
+    residual_scale_factors = np.ones(skeleton.NUM_ACTUATED_DOF)  # the residual range is residual_action_scale rad on every axis
     end_effector_links = skeleton.END_EFFECTOR_LINKS
     feet = ("right_ankle", "left_ankle")
     torso_links = skeleton.FALL_CONTACT_LINKS

@@ -62,7 +62,9 @@ class ImitationCore:
         self.track = track
         self.sim = MujocoSimulator([env.model for env in envs], [env.data for env in envs], config.substeps)
         self.features = FeatureExtractor(humanoid, num_envs)
-        self.actions = ActionMapper(config.action_parameterisation, config.residual_action_scale, humanoid.character)
+        character = humanoid.character
+        self.actions = ActionMapper(config.action_parameterisation, config.residual_action_scale, character,
+                                    character.residual_scale_factors if config.residual_scale_per_joint else None)
         self.mode = mode_class(config.mode)(config, track, humanoid, num_envs)
         self.root_sync = RootSync(track, num_envs, config.sync_root_per_cycle and self.mode.tracks_root)
         self.reference_obs = ReferenceObservation(track, num_envs, config.reference_obs_steps if self.mode.tracks_root else ())

@@ -21,8 +21,10 @@ hinges). Every fault is a `MotionFormatError` naming the file and the fault in o
 """
 from __future__ import annotations
 
+import logging
 import os
 import zipfile
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +32,12 @@ import numpy as np
 
 from actors.motion.reference_motion import MotionFormatError
 from learner.atomic_io import atomic_output
+
+log = logging.getLogger("sfv.motion")
+# MuJoCo's joint limits are soft constraints: a simulated joint under load passes its limit by
+# up to a few hundredths of a radian (a G1 rollout: waist roll 0.538 against 0.520). A file
+# that far out is read with its angles clipped and the overshoot reported; farther is an error.
+LIMIT_TOLERANCE_RAD = 0.05
 
 FORMAT = "sfv-robot-motion-1"
 
@@ -183,8 +191,26 @@ def load_robot_motion(path: str | os.PathLike, character: str | None = None) -> 
         from actors.character import g1_spec
 
         joint_names, limits = g1_spec.JOINT_NAMES, g1_spec.JOINT_LIMITS
+        motion = clip_to_limits(motion, limits, path)
     validate(motion, path, joint_names, limits)
     return motion
+
+
+def clip_to_limits(motion: RobotMotion, limits: np.ndarray, path="robot motion",
+                   tolerance: float = LIMIT_TOLERANCE_RAD) -> RobotMotion:
+    """The motion with joint angles at most `tolerance` past their limits clipped onto them (a
+    one-line warning naming the worst); angles farther out are left for `validate` to refuse."""
+    if motion.joint_pos.shape[1:] != (len(limits),):
+        return motion  # validate names the shape
+    below, above = limits[:, 0] - motion.joint_pos, motion.joint_pos - limits[:, 1]
+    over = np.maximum(below, above)
+    if not (over > 1e-6).any() or over.max() > tolerance:
+        return motion
+    frame, joint = np.unravel_index(int(np.argmax(over)), over.shape)
+    log.warning("%s: %d joint angle(s) past their limits by up to %.3f rad (%s at frame %d, as a simulator's soft "
+                "limits allow), clipped onto them", path, int((over > 1e-6).sum()), float(over.max()),
+                motion.joint_names[joint], int(frame))
+    return dataclasses.replace(motion, joint_pos=np.clip(motion.joint_pos, limits[:, 0], limits[:, 1]))
 
 
 def is_robot_motion(path: str | os.PathLike) -> bool:

@@ -14,7 +14,7 @@ import numpy as np
 
 from actors.character import quaternion as qn
 from actors.motion.reference_motion import MotionFormatError, ReferenceMotion
-from actors.motion.robot_motion import RobotMotion
+from actors.motion.robot_motion import RobotMotion, clip_to_limits
 
 
 def robot_reference(motion: RobotMotion, character) -> ReferenceMotion:
@@ -42,5 +42,6 @@ def robot_motion_of(reference: ReferenceMotion, character, source: str = "") -> 
     axes = np.asarray(character.hinge_axes, np.float64)
     # The signed angle about each hinge's axis (as StateLayout reads a hinge's quaternion).
     angles = 2.0 * np.arctan2(np.einsum("tjk,jk->tj", reference.joint_rot[..., 1:], axes), reference.joint_rot[..., 0])
-    return RobotMotion(character.name, reference.name, source or reference.source or reference.name, float(1.0 / steps[0]),
-                       reference.loop, tuple(character.joint_names), reference.root_pos.copy(), reference.root_rot.copy(), angles)
+    motion = RobotMotion(character.name, reference.name, source or reference.source or reference.name, float(1.0 / steps[0]),
+                         reference.loop, tuple(character.joint_names), reference.root_pos.copy(), reference.root_rot.copy(), angles)
+    return clip_to_limits(motion, np.asarray(character.actuator_limits, np.float64), reference.name)  # every joint a hinge: its limits; soft passed in simulation

@@ -328,13 +328,24 @@ def check_existing(config: LearningConfig, grid: list[Cell]) -> dict:
                 raise SfvError(f"{saved_path.parent}: trained with {key} {_dig(saved, path)!r}, this run asks for "
                                f"{_dig(wanted, path)!r}; use another --out-dir")
         if cell.name not in doc["runs"]:  # moved in from `sfv train`: the same settings, or it is not this cell's run
-            differing = setting_differences(saved, wanted)
+            differing = setting_differences(_as_loaded(saved), wanted)
             if differing:
                 shown = ", ".join(f"{name} {_dig(saved, tuple(name.split('.')))!r} (wanted {_dig(wanted, tuple(name.split('.')))!r})"
                                   for name in differing[:4])
                 raise SfvError(f"{saved_path.parent}: has no record in {RESULTS_FILE} and was trained with other settings: "
                                f"{shown}{' ...' if len(differing) > 4 else ''}; move it away or use another --out-dir")
     return doc
+
+
+def _as_loaded(saved: dict) -> dict:
+    """A saved run config as `sfv train --resume` reads it: the settings added since it was written
+    filled with what it was trained with (`TrainConfig.from_dict`); as written if it does not load."""
+    from services.training.config import TrainConfig
+
+    try:
+        return TrainConfig.from_dict(saved).to_dict()
+    except Exception:  # noqa: BLE001  a config from another version: compared as written, differences named
+        return saved
 
 
 def _read_results(config: LearningConfig) -> dict:

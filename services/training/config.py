@@ -171,6 +171,9 @@ def _upgrade(d: dict) -> dict:
     if env and "sfv" not in env and "tracking_termination_m" not in env:  # written before the termination existed
         env["tracking_termination_m"] = 0.0
         d["env"] = env
+    if env.get("character") == "g1" and "residual_scale_per_joint" not in env:  # written before the G1's per-joint residual range
+        env["residual_scale_per_joint"] = False
+        d["env"] = env
     if env and "flight_starts" not in env:  # written before flights' start states were made ballistic
         env["flight_starts"] = "reference"
         d["env"] = env

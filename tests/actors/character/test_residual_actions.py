@@ -216,3 +216,18 @@ def test_vector_env_steps_like_the_single_env(walk, humanoid):
         if terminated or truncated:
             break
     assert step > 5
+
+
+def test_residual_factors_scale_each_joints_range_and_bad_ones_are_refused():
+    factors = np.linspace(0.5, 3.0, 28)
+    mapper = ActionMapper("exp_map", SCALE, residual_factors=factors)
+    base = np.zeros((1, 28))
+    out = np.zeros((1, 28))
+    mapper.targets_batch(np.full((1, 28), 0.2), out, base)
+    expected = np.clip(0.2 * SCALE * factors, LOWER, UPPER)
+    np.testing.assert_allclose(out[0], expected, atol=1e-12)
+    np.testing.assert_allclose(mapper.action_for_targets(expected * 0.5, np.zeros(28))[-4:], 0.1, atol=1e-12)
+    with pytest.raises(ValueError, match="28 positive numbers"):
+        ActionMapper("exp_map", SCALE, residual_factors=np.ones(27))
+    with pytest.raises(ValueError, match="28 positive numbers"):
+        ActionMapper("exp_map", SCALE, residual_factors=np.zeros(28))

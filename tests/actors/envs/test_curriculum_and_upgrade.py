@@ -89,3 +89,13 @@ def test_a_config_from_another_version_names_the_field():
     d["no_such_field"] = 1
     with pytest.raises(ConfigError, match="no_such_field"):
         TrainConfig.from_dict(d)
+
+
+def test_a_g1_run_from_before_the_per_joint_residual_range_keeps_0_5_rad_on_every_joint():
+    d = TrainConfig().to_dict()
+    assert d["env"]["residual_scale_per_joint"] is True
+    d["env"]["character"] = "g1"
+    del d["env"]["residual_scale_per_joint"]
+    assert TrainConfig.from_dict(d).env.residual_scale_per_joint is False
+    d["env"]["character"] = "humanoid3d"  # its factors are all 1: nothing to keep
+    assert TrainConfig.from_dict(d).env.residual_scale_per_joint is True

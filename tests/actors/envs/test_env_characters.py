@@ -139,3 +139,31 @@ def test_vector_env_retargets_a_humanoid_clip_once_and_steps_the_g1(walk_clip, c
         assert obs.shape == (3, 406) and np.isfinite(obs).all() and np.all((rewards >= 0) & (rewards <= 1))
     episodes = venv.episodes.drain()
     assert len(episodes["returns"]) > 0 and episodes["initial_states"].shape[1] == 68
+
+
+@needs_g1
+def test_g1_full_residual_action_reaches_each_motors_effort_at_rest(g1_walk):
+    """With the per-joint range (the default), +-1 held from a reference start drives the hips'
+    and knees' PD torque to their effort limits; with 0.5 rad on every joint it reaches a
+    quarter to a half of them (kp 40-99 N m/rad against 88-139 N m)."""
+    import mujoco
+
+    from actors.motion.character_reference import load_reference
+
+    reference = load_reference(str(g1_walk[1]), character_named("g1"))
+    legs = [i for i, n in enumerate(character_named("g1").joint_names) if "hip_pitch" in n or "knee" in n]
+    reach = {}
+    for per_joint in (True, False):
+        env = ImitationEnv(reference, EnvConfig(character="g1", horizon_s=1.0, residual_scale_per_joint=per_joint))
+        env.reset(seed=0, options={"init": "rsi", "phase": 0.0})
+        env.data.qvel[:] = 0.0  # at rest: the PD torque is kp x (target - angle), clipped to the effort
+        action = np.zeros(29)
+        lower, upper = env.humanoid.character.joint_limits[legs].T
+        angle = env.data.qpos[7:][legs]
+        action[legs] = np.where(upper - angle > angle - lower, 1.0, -1.0)  # towards the farther limit: no clipping
+        env.actions.targets(action, out=env.data.ctrl[:29], base=env.track.ctrl[0])
+        mujoco.mj_forward(env.model, env.data)
+        torque = np.abs(env.data.actuator_force[legs])
+        reach[per_joint] = torque / env.humanoid.character.torque_limits[legs]
+    assert reach[True].min() > 0.95  # saturated: the whole effort is within the policy's reach
+    assert reach[False].max() < 0.7

@@ -61,6 +61,20 @@ def test_angles_outside_the_robot_limits_are_refused(tmp_path):
         load_robot_motion(path)
 
 
+def test_angles_a_soft_limit_past_are_clipped_and_reported(tmp_path, caplog):
+    """A simulated rollout's joints pass MuJoCo's soft limits by a few hundredths of a radian."""
+    motion = _motion()
+    waist = g1_spec.JOINT_NAMES.index("waist_roll_joint")
+    motion.joint_pos[3, waist] = 0.5379  # 0.018 past 0.52
+    path = save_robot_motion(motion, tmp_path / "rollout_g1.npz")
+    with caplog.at_level("WARNING", logger="sfv.motion"):
+        back = load_robot_motion(path, "g1")
+    assert back.joint_pos[3, waist] == pytest.approx(0.52)
+    assert np.array_equal(np.delete(back.joint_pos, waist, axis=1), np.delete(motion.joint_pos, waist, axis=1))
+    (record,) = caplog.records
+    assert "1 joint angle(s) past their limits by up to 0.018 rad (waist_roll_joint at frame 3" in record.getMessage()
+
+
 def test_a_humanoid_motion_or_another_robot_is_refused(tmp_path, walk_clip):
     from actors.motion.formats.io import save_motion
 

@@ -179,8 +179,11 @@ def test_the_onnx_export_carries_a_robot_runtimes_metadata(g1_run, tmp_path):
     np.testing.assert_allclose(meta["armature"], g1_spec.ARMATURE, rtol=1e-5)
     np.testing.assert_allclose(meta["default_joint_pos"], g1_spec.standing_joint_angles())
     np.testing.assert_allclose(meta["target_limits"], g1_spec.JOINT_LIMITS.T, atol=1e-6)
-    assert meta["action"] == {"parameterisation": "exp_map", "dim": 29, "clip": [-1.0, 1.0], "scale": [0.5] * 29,
-                              "offset": "reference_targets", "lead_steps": 2, "elementwise": True}
+    action = dict(meta["action"])
+    # The per-joint residual range: +-1 reaches each motor's effort limit at rest.
+    np.testing.assert_allclose(np.asarray(action.pop("scale")) * g1_spec.KP, g1_spec.EFFORT_LIMITS, rtol=1e-5)
+    assert action == {"parameterisation": "exp_map", "dim": 29, "clip": [-1.0, 1.0],
+                      "offset": "reference_targets", "lead_steps": 2, "elementwise": True}
     assert (meta["control_hz"], meta["physics_hz"], meta["reference_loop"]) == (30.0, 300.0, True)
     env = load_policy_source(g1_run).make_env()
     assert np.shape(meta["reference_targets"]) == (env.track.start_steps, 29)
