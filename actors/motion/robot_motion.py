@@ -21,10 +21,10 @@ hinges). Every fault is a `MotionFormatError` naming the file and the fault in o
 """
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 import zipfile
-import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
