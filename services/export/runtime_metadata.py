@@ -20,6 +20,7 @@ reference row of the current state: 0 at the reference's first frame, one more p
 | `initial_qpos`, `initial_qvel` | the reference's first frame (row 0), full precision, in the MJCF's qpos / qvel order |
 | `control_hz`, `physics_hz` | the policy's rate and the simulation's it was trained at |
 | `physics` | the trained model's integrator, joint damping and floor contacts (the geoms paired with the floor, the pairs' friction and condim; self-collision off) |
+| `ground_contacts` | `allowed_bodies`: the MuJoCo bodies that may touch the floor without a fall in this clip (the env's contact rule, `actors/envs/falls.py`: the feet, and the hands of a cartwheel, the whole body of a get-up); a floor contact of any other body ends the episode |
 | `observation_layout` | the observation's blocks (name, start, size, what: exact definitions), `observation_links` the MuJoCo bodies of its link blocks in order (the root first) |
 | `observation_reference` | the reference rows observed ahead (`root_steps`, `pose_steps`) and whether the reference root is re-synchronised to the character's at each new cycle (`root_sync`) |
 """
@@ -100,6 +101,14 @@ def _physics(env) -> dict:
                                "condim": int(model.pair_dim[first]) if first is not None else 3}}
 
 
+def _ground_contacts(env) -> dict:
+    """The bodies whose floor contact the env's fall rule allows (its links less its fall links)."""
+    falls = set(env.fall_detector.links.tolist())
+    bodies = [b for i, b in enumerate(env.humanoid.body_ids) if i not in falls]
+    return {"allowed_bodies": [_name(env.model, mujoco.mjtObj.mjOBJ_BODY, b) for b in bodies],
+            "what": "bodies whose floor contact is not a fall in this clip; a floor contact of any other body ends the episode"}
+
+
 def _observation_links(env) -> list[str]:
     """The bodies whose features fill the link blocks, in the order written (MuJoCo's bodies 1..n:
     `FeatureExtractor.capture`; the humanoid3d's link list orders them otherwise)."""
@@ -141,6 +150,7 @@ def runtime_metadata(env) -> dict[str, str]:
         "control_hz": float(config.control_hz),
         "physics_hz": float(config.physics.physics_hz),
         "physics": _physics(env),
+        "ground_contacts": _ground_contacts(env),
         "observation_layout": _layout(env, scene_dim),
         "observation_links": _observation_links(env),
         "observation_reference": {"root_steps": [int(k) for k in env.reference_obs.steps],

@@ -26,9 +26,10 @@ and every file's imports), and reproduces from the file's metadata
 
 The report (`run_sim2sim`, `replay.py`) holds one episode from the first frame: the seconds it
 survived under the fall rule it names (`FallRule`: the root's origin below a height, by default
-half its first-frame height, or a floor contact of any body but the feet, the leaf bodies of the
-kinematic tree within 10 cm of the lowest body origin in the model's reference configuration qpos0;
-or a diverged simulation), the mean |target - joint position| over physics steps and actuators, and
+half its first-frame height, or a floor contact of any body but those the clip allows: the file's
+`ground_contacts` (the env's contact rule: the feet, a cartwheel's hands too), or for a file written
+before it the feet, the leaf bodies of the kinematic tree within 10 cm of the lowest body origin in
+the model's reference configuration qpos0; or a diverged simulation), the mean |target - joint position| over physics steps and actuators, and
 the largest fraction of physics steps any actuator spent at its effort limit; written as JSON
 atomically (`write_json_atomic`).
 
@@ -37,7 +38,7 @@ what this runtime can replay; a file without one is refused, naming it): sfv_run
 actuator_names, actuator_gear, kp, kd, effort_limit, armature, target_limits, action,
 reference_track, initial_qpos, initial_qvel, control_hz, physics_hz (reported), physics,
 observation_layout, observation_links, observation_reference; and, where present, character,
-motion (reported) and mode (only `sfv` is replayed).
+motion (reported), mode (only `sfv` is replayed) and ground_contacts (the fall rule).
 
 Files: `policy.py` the ONNX file and its metadata checks (`Sim2SimError`, `Policy`, `load_policy`);
 `model.py` the fresh MuJoCo model (`build_model`, `floor_name`); `observer.py` the observation

@@ -11,7 +11,7 @@ import numpy as np
 REQUIRED_KEYS = ("sfv_runtime", "joint_order", "actuator_names", "actuator_gear", "kp", "kd", "effort_limit", "armature",
                  "target_limits", "action", "reference_track", "initial_qpos", "initial_qvel", "control_hz", "physics_hz",
                  "physics", "observation_layout", "observation_links", "observation_reference")
-OPTIONAL_KEYS = ("character", "motion", "mode")
+OPTIONAL_KEYS = ("character", "motion", "mode", "ground_contacts")
 OBSERVED_BLOCKS = ("root_height", "link_positions", "link_rotations", "link_linear_velocities", "link_angular_velocities",
                    "reference_root_positions", "reference_root_rotations", "phase", "reference_poses")
 
@@ -76,6 +76,10 @@ def load_policy(path: str | os.PathLike) -> Policy:
 def _check_metadata(meta: dict, obs_dim: int, path: Path) -> None:
     """What this runtime can replay: the sfv mode, one action per actuator, the blocks it computes."""
     nu = len(meta["joint_order"])
+    allowed = meta.get("ground_contacts", {"allowed_bodies": []})
+    if not (isinstance(allowed, dict) and isinstance(allowed.get("allowed_bodies"), list)
+            and all(isinstance(name, str) for name in allowed["allowed_bodies"])):
+        raise Sim2SimError(f"{path}: metadata ground_contacts is not {{\"allowed_bodies\": [body names]}}")
     if meta.get("mode", "sfv") != "sfv":
         raise Sim2SimError(f"{path}: env mode {meta['mode']} rewrites observation slots; sim2sim replays the sfv mode only")
     action = meta["action"]

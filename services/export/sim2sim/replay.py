@@ -11,7 +11,7 @@ import numpy as np
 
 from services.export.sim2sim.model import DEFAULT_PHYSICS_HZ, build_model, floor_name
 from services.export.sim2sim.observer import Observer, update_kinematics
-from services.export.sim2sim.policy import Policy, load_policy
+from services.export.sim2sim.policy import Policy, Sim2SimError, load_policy
 
 FOOT_BAND_M = 0.10  # feet: leaf bodies this close to the lowest body origin in qpos0
 FALL_HEIGHT_FRACTION = 0.5  # default fall height: this fraction of the first frame's root height
@@ -100,18 +100,30 @@ class EpisodeStats:
 
 
 class FallRule:
-    """The root's origin below `height` m, a floor contact of a body but the feet, or a diverged simulation."""
+    """The root's origin below `height` m, a floor contact of a body the clip does not allow, or a
+    diverged simulation. The allowed bodies are `allowed` (the file's `ground_contacts`: the feet,
+    a cartwheel's hands too) or, where none are given, the feet found in the model (`lowest_leaves`)."""
 
-    def __init__(self, model: mujoco.MjModel, floor: str, root: int, height: float, feet: tuple[str, ...] | None = None):
+    def __init__(self, model: mujoco.MjModel, floor: str, root: int, height: float, allowed: tuple[str, ...] | None = None):
         self.model, self.root, self.height = model, root, float(height)
         self.floor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, floor)
-        self.feet = tuple(feet) if feet is not None else lowest_leaves(model)
-        self.foot_ids = {mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name) for name in self.feet}
+        self.from_metadata = allowed is not None
+        self.allowed = tuple(allowed) if allowed is not None else lowest_leaves(model)
+        ids = {name: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name) for name in self.allowed}
+        unknown = [name for name, i in ids.items() if i < 0]
+        if unknown:
+            raise ValueError(f"allowed floor-contact bodies {unknown} are not bodies of the model")
+        self.allowed_ids = set(ids.values())
+
+    @property
+    def feet(self) -> tuple[str, ...]:
+        """The bodies allowed on the floor (the feet where the file names none)."""
+        return self.allowed
 
     def describe(self) -> str:
-        return (f"fall: the root body's origin below {self.height:.3g} m, a floor contact of any body but the feet "
-                f"({', '.join(self.feet)}: the leaf bodies within {FOOT_BAND_M:g} m of the lowest body origin in qpos0), "
-                "or a diverged simulation")
+        which = (f"the bodies the clip allows ({', '.join(self.allowed)}: the file's ground_contacts)" if self.from_metadata else
+                 f"the feet ({', '.join(self.allowed)}: the leaf bodies within {FOOT_BAND_M:g} m of the lowest body origin in qpos0)")
+        return f"fall: the root body's origin below {self.height:.3g} m, a floor contact of any body but {which}, or a diverged simulation"
 
     def __call__(self, data: mujoco.MjData) -> str | None:
         """Why this state is a fall (None: it is not)."""
@@ -122,7 +134,7 @@ class FallRule:
         geoms = data.contact.geom[:data.ncon]
         for g1, g2 in geoms:
             other = g2 if g1 == self.floor else g1 if g2 == self.floor else -1
-            if other >= 0 and self.model.geom_bodyid[other] not in self.foot_ids:
+            if other >= 0 and self.model.geom_bodyid[other] not in self.allowed_ids:
                 return f"{mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, self.model.geom_bodyid[other])} touched the floor"
         return None
 
@@ -171,7 +183,11 @@ def run_sim2sim(policy_path: str | os.PathLike, robot_xml: str | os.PathLike, ph
     replay = Replay(policy, model, robot_xml)
     height = FALL_HEIGHT_FRACTION * replay.initial_qpos[2] if fall_height is None else fall_height
     floor = floor_name(model)
-    fall = FallRule(model, floor, replay.observer.root, height, feet)
+    allowed = feet if feet is not None else meta.get("ground_contacts", {}).get("allowed_bodies")
+    try:
+        fall = FallRule(model, floor, replay.observer.root, height, allowed)
+    except ValueError as exc:
+        raise Sim2SimError(f"{policy_path}: ground_contacts: {exc} {robot_xml}") from None
     steps = min(max(1, int(round(seconds * replay.control_hz))), replay.observer.last_row)
     report = {"policy": str(policy.path), "robot_xml": str(robot_xml), "character": meta.get("character"), "motion": meta.get("motion"),
               "physics_hz": replay.physics_hz, "trained_physics_hz": float(meta["physics_hz"]), "control_hz": replay.control_hz,

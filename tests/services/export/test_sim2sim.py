@@ -125,7 +125,8 @@ def test_the_report_at_1khz_is_written_atomically(body, tmp_path):
     assert episode["seconds_survived"] == pytest.approx(episode["control_steps"] / 30.0) and 0 < episode["seconds_survived"] <= 1.0
     assert abs(episode["physics_steps"] - episode["control_steps"] * 1000.0 / 30.0) <= 1.0  # 33 or 34 steps a control period
     assert episode["mean_joint_target_error_rad"] > 0 and 0.0 <= episode["max_torque_saturation_fraction"] <= 1.0
-    assert "the feet (" in report["fall_rule"] and episode["fell"] == (episode["fall_reason"] is not None)
+    feet = character_named(body.character).feet  # a walk's rule: only the feet may touch the floor
+    assert f"the bodies the clip allows ({', '.join(feet)}" in report["fall_rule"] and episode["fell"] == (episode["fall_reason"] is not None)
 
 
 def test_the_feet_come_from_the_model_and_a_lying_body_has_fallen(body):
@@ -139,6 +140,42 @@ def test_the_feet_come_from_the_model_and_a_lying_body_has_fallen(body):
     replay.data.qpos[3:7] = [np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0]  # on its side, at the floor
     mujoco.mj_forward(replay.model, replay.data)
     assert rule(replay.data).endswith("touched the floor")
+
+
+def test_the_bodies_allowed_on_the_floor_are_the_files_and_another_lying_there_has_fallen(body):
+    replay = _replay(body)
+    lying = replay.reset() is not None and replay.data
+    lying.qpos[2] = 0.12
+    lying.qpos[3:7] = [np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0]  # on its side, at the floor
+    mujoco.mj_forward(replay.model, lying)
+    touching = {mujoco.mj_id2name(replay.model, mujoco.mjtObj.mjOBJ_BODY, replay.model.geom_bodyid[g])
+                for pair in lying.contact.geom[:lying.ncon] for g in pair if g != replay.model.ngeom and replay.model.geom_bodyid[g] > 0}
+    assert touching - set(character_named(body.character).feet)  # something but the feet touches
+    floor = sim2sim.floor_name(replay.model)
+    allowed = sorted(touching)
+    assert sim2sim.FallRule(replay.model, floor, replay.observer.root, 0.0, allowed)(lying) is None
+    fall = sim2sim.FallRule(replay.model, floor, replay.observer.root, 0.0, allowed[1:])(lying)
+    assert fall is not None and fall.endswith("touched the floor")
+    with pytest.raises(ValueError, match="nose"):
+        sim2sim.FallRule(replay.model, floor, replay.observer.root, 0.0, ("nose",))
+
+
+@pytest.mark.parametrize("character", BODIES)
+def test_a_cartwheels_file_allows_its_hands_on_the_floor_and_a_walks_only_its_feet(character):
+    from actors.envs.imitation_env import ImitationEnv
+    from actors.motion.formats.io import load_motion
+    from services.export.runtime_metadata import runtime_metadata
+
+    if character == "g1" and not g1_model.model_available():
+        pytest.skip("G1 model not cached (sfv models fetch --robot g1)")
+    spec = character_named(character)
+    allowed = {}
+    for clip in ("walk", "cartwheel"):  # a humanoid clip, retargeted onto the G1 by the env
+        env = ImitationEnv(load_motion(f"deepmimic:{clip}"), EnvConfig(character=character, horizon_s=1.0))
+        allowed[clip] = json.loads(runtime_metadata(env)["ground_contacts"])["allowed_bodies"]
+    hands = {spec.link_names[i] for i in spec.end_effector_links} - set(spec.feet)
+    assert set(allowed["walk"]) == set(spec.feet)
+    assert hands and set(allowed["cartwheel"]) == set(spec.feet) | hands
 
 
 def test_the_command_prints_the_report_and_finds_the_robot_xml(body, tmp_path, capsys):
@@ -185,6 +222,17 @@ def _without_key(onnx: Path, key: str, out: Path) -> Path:
     return out
 
 
+def _with_key(onnx: Path, key: str, value, out: Path) -> Path:
+    """The file with metadata `key` set to `value` (JSON)."""
+    import onnx as onnx_lib
+
+    model = onnx_lib.load(str(_without_key(onnx, key, out)))
+    entry = model.metadata_props.add()
+    entry.key, entry.value = key, json.dumps(value)
+    onnx_lib.save(model, str(out))
+    return out
+
+
 def _robot_without(xml: Path, joint: str, out: Path) -> Path:
     """The robot's MJCF with `joint` renamed (meshes still found)."""
     text = xml.read_text().replace(f'name="{joint}"', f'name="{joint}_renamed"')
@@ -198,10 +246,14 @@ def test_bad_inputs_are_one_line_errors_naming_the_file(body, tmp_path, capsys):
     stale = _without_key(body.onnx, "reference_track", tmp_path / "stale.onnx")
     joint = body.policy.meta["joint_order"][-1]
     robot = _robot_without(body.xml, joint, tmp_path / "robot.xml")
+    odd = _with_key(body.onnx, "ground_contacts", {"allowed_bodies": ["nose"]}, tmp_path / "odd.onnx")
+    bad = _with_key(body.onnx, "ground_contacts", ["pelvis"], tmp_path / "bad.onnx")
     cases = [((text, body.xml), f"{text}: not an ONNX model"),
              ((stale, body.xml), f"{stale}: no robot-runtime metadata key reference_track"),
              ((body.onnx, robot), f"{robot}: no joint {joint}"),
-             ((body.onnx, tmp_path / "missing.xml"), f"{tmp_path / 'missing.xml'}: no such robot MJCF file")]
+             ((body.onnx, tmp_path / "missing.xml"), f"{tmp_path / 'missing.xml'}: no such robot MJCF file"),
+             ((odd, body.xml), f"{odd}: ground_contacts: allowed floor-contact bodies ['nose'] are not bodies of the model {body.xml}"),
+             ((bad, body.xml), f"{bad}: metadata ground_contacts is not")]
     for (policy, xml), message in cases:
         with pytest.raises(Sim2SimError) as caught:
             run_sim2sim(policy, xml, seconds=0.1)
@@ -209,4 +261,4 @@ def test_bad_inputs_are_one_line_errors_naming_the_file(body, tmp_path, capsys):
         assert main(["sim2sim", str(policy), "--robot-xml", str(xml), "--seconds", "0.1"]) == 2
         err = capsys.readouterr().err.strip()
         assert err == f"sfv: {caught.value}"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["not_a_policy.onnx", "robot.xml", "stale.onnx"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.onnx", "not_a_policy.onnx", "odd.onnx", "robot.xml", "stale.onnx"]
