@@ -28,3 +28,15 @@ class BatchFormatError(SfvError, ValueError):
 
 class ConfigError(SfvError, ValueError):
     """A PPOConfig field is out of range or unknown."""
+
+
+class TrainingStopped(BaseException):
+    """Training stopped on a signal (SIGTERM from a scheduler, SIGINT from a terminal) after its
+    checkpoint was written: the message says where and how to resume. A BaseException, like
+    KeyboardInterrupt, so that no `except Exception` on the way (a benchmark recording one run's
+    fault and going on with the next) mistakes a stop for a failed run. The command line prints
+    it as `sfv: <message>` and exits 128 + the signal's number, as a process killed by it would."""
+
+    def __init__(self, message: str, signal_number: int):
+        super().__init__(message)
+        self.exit_code = 128 + int(signal_number)

@@ -18,7 +18,7 @@ import importlib
 import pkgutil
 import sys
 
-from learner.errors import SfvError
+from learner.errors import SfvError, TrainingStopped
 from services import commands
 
 VERBOSE_FLAG = "--verbose"
@@ -70,6 +70,9 @@ def main(argv: list[str] | None = None) -> int:
     except SfvError as exc:
         print(f"sfv: {exc}", file=sys.stderr)
         return 2
+    except TrainingStopped as exc:  # a stop signal, the checkpoint written
+        print(f"sfv: {exc}", file=sys.stderr)
+        return exc.exit_code
     except KeyboardInterrupt:
         print("sfv: interrupted", file=sys.stderr)
         return 130

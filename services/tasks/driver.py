@@ -18,6 +18,7 @@ from services.tasks.config import TaskConfig
 from services.training.driver import Trainer, _set_torch_threads
 from services.training.run_dir import MetricsLog
 from services.training.runners import make_runner
+from services.training.stop_signals import StopSignals
 
 
 def task_figures(batch: dict) -> dict:
@@ -53,7 +54,9 @@ class TaskTrainer(Trainer):
         self.runner.start(spec)
         metrics = MetricsLog(self.run_dir, resumed_at_samples=self.samples if checkpoint is not None else None)
         try:
-            return self._loop(learner, metrics, 0)
+            with StopSignals() as stop:  # SIGTERM / SIGINT: finish the iteration, checkpoint, stop
+                self.stop = stop
+                return self._loop(learner, metrics, 0)
         finally:
             metrics.close()
 

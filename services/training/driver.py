@@ -29,12 +29,13 @@ from actors.motion.character_reference import load_reference
 from actors.rollout.worker import RolloutWorker, WorkerSpec
 from actors.character.humanoid3d import HUMANOID3D
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
-from learner.errors import NonFiniteError, SfvError
+from learner.errors import NonFiniteError, SfvError, TrainingStopped
 from learner.ppo import PPOLearner
 from learner.schedule import linear_anneal
 from learner.tuple_sampling import select_tuples
 from services.training.asi_connection import ASIConnection
 from services.training.config import TrainConfig
+from services.training.stop_signals import StopSignals
 from services.training.run_dir import (
     BEST_CHECKPOINT,
     CONFIG_FILE,
@@ -167,7 +168,9 @@ class Trainer:
             self.asi_drift = ASIDrift(asi.client) if config.init == "asi" else None
             metrics = MetricsLog(self.run_dir, resumed_at_samples=self.samples if checkpoint is not None else None)
             try:
-                return self._loop(learner, metrics, max(asi_version, info.version))
+                with StopSignals() as stop:  # SIGTERM / SIGINT: finish the iteration, checkpoint, stop
+                    self.stop = stop
+                    return self._loop(learner, metrics, max(asi_version, info.version))
             finally:
                 metrics.close()
 
@@ -233,9 +236,12 @@ class Trainer:
             metrics.write(record)
             bar.update(n)
             bar.set_postfix(sps=f"{record['samples_per_s']:.0f}", ret=_fmt(record["normalized_return"]), asi=asi_version)
-            if self.iteration % config.checkpoint_every == 0 or self.samples >= config.samples:
-                self._checkpoint(learner, asi_version)
             last = self.samples >= config.samples
+            if self.iteration % config.checkpoint_every == 0 or last or self._stop_requested():
+                self._checkpoint(learner, asi_version)
+            if self._stop_requested() and not last:
+                bar.close()
+                self._stopped()
             if config.plot_every and (last or (self.iteration % config.plot_every == 0
                                                and time.perf_counter() - last_plot >= config.plot_min_interval_s)):
                 self._plot()
@@ -244,6 +250,19 @@ class Trainer:
         elapsed = time.perf_counter() - start_time
         record["overall_samples_per_s"] = (self.samples - start_samples) / max(elapsed, 1e-9)
         return record
+
+    def _stop_requested(self) -> bool:
+        stop = getattr(self, "stop", None)
+        return stop is not None and stop.requested is not None
+
+    def _stopped(self) -> None:
+        """After a stop signal's checkpoint: the curve drawn, then `TrainingStopped` saying how to go on."""
+        if self.config.plot_every:
+            self._plot()
+        newest = latest_checkpoint(self.run_dir)
+        raise TrainingStopped(f"{self.run_dir}: stopped by {self.stop.name} at {self.samples:,} samples, "
+                              f"iteration {self.iteration}; checkpoint {newest.name if newest else 'none'} written "
+                              f"(sfv train --resume --out {self.run_dir} continues)", self.stop.requested)
 
     def _select_tuples(self, batch: dict) -> dict:
         """The tuples this update trains on (`--ppo.tuple-sampling`, paper 002 §5.2) and their

@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import multiprocessing as mp
 import os
+import signal
 
 from learner.errors import SfvError
 from services.training.runners.base import WorkerRunner
@@ -32,6 +33,9 @@ def child_environment(values: dict[str, str]):
 
 
 def _serve_worker(worker_class, spec, index: int, conn) -> None:
+    # Ctrl-C reaches the whole process group: the driver stops the run (finishing the iteration
+    # and checkpointing, `stop_signals.py`) and closes the pipe, which ends this loop.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         worker = worker_class(spec, index)
         conn.send(("ready", index))
