@@ -15,7 +15,7 @@ from actors.rollout.task_worker import TaskRolloutWorker, TaskWorkerSpec
 from actors.envs.tasks.vector_task_env import VectorTaskEnv
 from learner.ppo import PPOLearner
 from services.tasks.config import TaskConfig
-from services.training.driver import Trainer, _set_torch_threads
+from services.training.driver import Trainer, _set_torch_threads, check_learner_device
 from services.training.run_dir import MetricsLog
 from services.training.runners import make_runner
 from services.training.stop_signals import StopSignals
@@ -44,6 +44,7 @@ class TaskTrainer(Trainer):
         probe = VectorTaskEnv(config.env, 1)  # the dims; a bad --module fails here, before anything is written
         self.track_rows = probe.max_episode_steps  # a task's frames are steps since the episode began
         checkpoint = self._prepare_run_dir()
+        check_learner_device(config.device)
         _set_torch_threads(config)
         learner = PPOLearner(probe.obs_dim, probe.action_dim, config.ppo, device=config.device)
         del probe

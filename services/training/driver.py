@@ -149,6 +149,7 @@ class Trainer:
         env, ref_states, ref_phases = self._reference_table(motion)
         checkpoint = self._prepare_run_dir()
         self.track_rows = env.track.rows  # the frame range of adaptive tuple sampling's coverage
+        check_learner_device(config.device)
         _set_torch_threads(config)
         learner = PPOLearner(env.observation_space.shape[0], env.action_space.shape[0], config.ppo, device=config.device)
         asi_version = 0
@@ -411,6 +412,20 @@ def _load_error(path: Path) -> str:
 
 def _fmt(value) -> str:
     return "-" if value is None or (isinstance(value, float) and math.isnan(value)) else f"{value:.3f}"
+
+
+def check_learner_device(device: str) -> None:
+    """`--device` names a torch device this node has: a one-line SfvError, not torch's traceback
+    (a run trained on a GPU box and resumed on a CPU one keeps `device: cuda` in its config)."""
+    import torch
+
+    try:
+        kind = torch.device(device).type
+    except (RuntimeError, ValueError) as exc:
+        raise SfvError(f"--device {device}: not a torch device ({str(exc).splitlines()[0]})") from None
+    if kind == "cuda" and not torch.cuda.is_available():
+        raise SfvError(f"--device {device}: torch {torch.__version__} sees no CUDA device on this node; "
+                       "--device cpu learns on the CPU (a resumed run takes it too)")
 
 
 def _set_torch_threads(config: TrainConfig) -> int:

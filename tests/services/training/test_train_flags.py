@@ -50,3 +50,23 @@ def test_ppo_settings_changed_in_place_are_validated_before_training(tmp_path):
     config.ppo.update_epochs = 0
     with pytest.raises(SfvError, match="update_epochs"):
         config.validate()
+
+
+def test_a_device_this_node_lacks_is_a_one_line_error_before_training(tmp_path, capsys):
+    import torch
+
+    from services.cli import main
+    from services.training.driver import check_learner_device
+
+    check_learner_device("cpu")
+    with pytest.raises(SfvError, match=r"^--device gpu0: not a torch device"):
+        check_learner_device("gpu0")
+    if torch.cuda.is_available():
+        pytest.skip("this node has CUDA: the missing-GPU message cannot show")
+    pytest.importorskip("pybullet_data", reason="the DeepMimic clips come with pybullet_data")
+    run = tmp_path / "run"
+    code = main(["train", "--out", str(run), "--device", "cuda", "--runner", "in_process", "--workers", "1", "--envs-per-worker", "2",
+                 "--samples", "64", "--batch-size", "64", "--eval-every", "0", "--quiet"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and err[-1].startswith("sfv: --device cuda: torch ") and "--device cpu" in err[-1]
+    assert not list(run.glob("checkpoint_*.pt"))
