@@ -35,7 +35,6 @@ from learner.schedule import linear_anneal
 from learner.tuple_sampling import select_tuples
 from services.training.asi_connection import ASIConnection
 from services.training.config import TrainConfig
-from services.training.stop_signals import StopSignals
 from services.training.run_dir import (
     BEST_CHECKPOINT,
     CONFIG_FILE,
@@ -46,6 +45,7 @@ from services.training.run_dir import (
     write_json_atomic,
 )
 from services.training.runners import WorkerFaults, WorkerRunner, make_runner
+from services.training.stop_signals import StopSignals
 
 log = logging.getLogger("sfv.train")
 TRAJECTORY_KEYS = ("obs", "next_obs", "actions", "logp", "rewards", "terminated", "truncated")
@@ -73,6 +73,7 @@ class Trainer:
         self.iteration = 0
         self.best_eval: float | None = None  # the best periodic evaluation's normalised return (best.pt)
         self.asi_drift: ASIDrift | None = None
+        self.stop: StopSignals | None = None  # installed around the loop (`run`)
 
     # ------------------------------------------------------------------ setup
     def _prepare_run_dir(self) -> dict | None:
@@ -253,8 +254,7 @@ class Trainer:
         return record
 
     def _stop_requested(self) -> bool:
-        stop = getattr(self, "stop", None)
-        return stop is not None and stop.requested is not None
+        return self.stop is not None and self.stop.requested is not None
 
     def _stopped(self) -> None:
         """After a stop signal's checkpoint: the curve drawn, then `TrainingStopped` saying how to go on."""
