@@ -115,11 +115,6 @@ class FallRule:
             raise ValueError(f"allowed floor-contact bodies {unknown} are not bodies of the model")
         self.allowed_ids = set(ids.values())
 
-    @property
-    def feet(self) -> tuple[str, ...]:
-        """The bodies allowed on the floor (the feet where the file names none)."""
-        return self.allowed
-
     def describe(self) -> str:
         which = (f"the bodies the clip allows ({', '.join(self.allowed)}: the file's ground_contacts)" if self.from_metadata else
                  f"the feet ({', '.join(self.allowed)}: the leaf bodies within {FOOT_BAND_M:g} m of the lowest body origin in qpos0)")

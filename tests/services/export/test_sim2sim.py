@@ -132,7 +132,7 @@ def test_the_report_at_1khz_is_written_atomically(body, tmp_path):
 def test_the_feet_come_from_the_model_and_a_lying_body_has_fallen(body):
     replay = _replay(body)
     rule = sim2sim.FallRule(replay.model, sim2sim.floor_name(replay.model), replay.observer.root, 0.0)
-    assert set(rule.feet) == set(character_named(body.character).feet)
+    assert set(rule.allowed) == set(character_named(body.character).feet)
     replay.reset()
     mujoco.mj_forward(replay.model, replay.data)
     assert rule(replay.data) is None  # the first frame stands on its feet
