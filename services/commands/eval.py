@@ -9,7 +9,8 @@ clip's strict rule after every control step, whatever the training's early termi
 DeepMimic's contact rule (any link but the feet, and those the clip allows, on the ground)
 plus a pelvis-height floor. Keys: normalized_return (+ _std), fall_rate, episode_length,
 episode_seconds, joint_rotation_error_rad, end_effector_error_m, distance_ratio (looped clips),
-divergences, episodes; with --push: pushes, push_impulse_ns, push_duration_s, push_episodes,
+divergences, episodes, fall_phases, fall_starts, start_returns
+(each episode's start phase and normalized return); with --push: pushes, push_impulse_ns, push_duration_s, push_episodes,
 push_survival_rate; for a clip that does not loop, first_frame: the episode from the clip's first
 frame to its end (normalized_return, fell, episode_seconds, clip_seconds, joint and end-effector
 errors), also said in one line on stderr beside the phase average. `services/training/evaluation.py`

@@ -37,6 +37,8 @@ Figures (one dict):
   start phase: falls within the first clip cycle from starts bunched between the phases training
   starts from say the policy never learned to begin there (ASI's k fixed phases), not that it
   cannot hold the skill.
+- start_returns: each episode's [start phase, normalized return], in episode order: a high
+  normalized_return_std with few falls is a run of starts that track poorly, and this names them.
 - first_frame (`sfv eval`, clips that do not loop): the episode a user sees first, started at the
   clip's first frame (FSI) and run to the clip's end with the same strict falls and no pushes:
   normalized_return, fell, episode_seconds of clip_seconds, joint_rotation_error_rad,
@@ -147,6 +149,7 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
         act = policy.act
 
     returns, lengths, falls = np.zeros(episodes), np.zeros(episodes), np.zeros(episodes, dtype=bool)
+    started = np.zeros(episodes)  # each episode's start phase
     divergences = 0
     fall_phases: list[float] = []  # the clip's phase at each fall: where in the clip episodes end
     fall_starts: list[dict] = []  # each fall's start phase and seconds survived
@@ -162,6 +165,7 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
             obs, _ = env.reset(seed=seed + k, options=options)
             obs_row[0] = obs
             start_row = env.row
+            started[k] = track.phase[start_row]
             limit = env.max_episode_steps
             schedule = None
             if schedule_config is not None:
@@ -226,6 +230,7 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
         "episodes": int(episodes),
         "fall_phases": [round(p, 3) for p in sorted(fall_phases)],
         "fall_starts": sorted(fall_starts, key=lambda f: f["start_phase"]),
+        "start_returns": [[round(float(p), 3), round(float(r), 4)] for p, r in zip(started, returns)],
     }
     if schedule_config is not None:
         result.update(pushes=int(pushes), push_impulse_ns=schedule_config.impulse, push_duration_s=schedule_config.duration_s,

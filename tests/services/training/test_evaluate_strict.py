@@ -119,6 +119,19 @@ def test_fall_phases_say_where_in_the_clip_each_fall_happened(stand):
     assert all(0.0 < f["seconds"] < 1.0 for f in falls)
 
 
+def test_start_returns_name_each_episodes_start_and_score(stand):
+    config = EnvConfig(horizon_s=1.5, early_termination=True, **ABSOLUTE)
+    env = ImitationEnv(stand, config)
+    held = evaluate_policy(Constant(np.zeros(env.action_space.shape)), env, 4)
+    knelt = evaluate_policy(Constant(kneel_action(config)), env, 4)
+    for figures in (held, knelt):
+        starts, scores = np.array(figures["start_returns"]).T
+        assert starts == pytest.approx(np.arange(4) / 4, abs=1.0 / (30 * stand.duration))
+        assert scores.mean() == pytest.approx(figures["normalized_return"], abs=1e-3)
+    # Start by start, the kneeling policy scores below the one that holds the pose.
+    assert np.all(np.array(knelt["start_returns"])[:, 1] < np.array(held["start_returns"])[:, 1])
+
+
 def test_without_termination_the_env_alone_lets_the_kneeling_character_go_on(stand):
     """The control case for the test above: the env itself would not have ended these episodes."""
     config = EnvConfig(horizon_s=1.5, early_termination=False, **ABSOLUTE)
