@@ -23,6 +23,17 @@ push-off, `flight_stretches`) gets, for start states only:
   first frame (`services/bench/scripts/flight_momentum.py --run`): the momentum a take-off gives;
 - the centre of mass's velocity on the parabola under g that fits the reference's centre of mass
   positions best.
+The take-off rows just before a flight join it (`takeoff_rows`): up to TAKEOFF_MAX_ROWS rows whose
+centre of mass lies within TAKEOFF_FIT_M of the flight's parabola carried back, stopping at the
+first that does not. The backflip's rows 18-19 (phases .34-.36) are such rows: the toes still touch
+but the centre of mass is 1-2 cm off the flight's arc, and the reference carries 18-19 kg m^2/s and
+1.3-1.6 m/s upwards there, against the 37-40 kg m^2/s and 2.2 m/s the trained policy has at the same
+phase from the first frame. A start there is in the air one step later with half the rotation: at
+20 M samples the start at .343 was one of `sfv eval`'s three falls (on its back at the landing, .648)
+while the starts at .305 and .381 on either side scored .83-.84. With these rows ballistic the
+start gets the flight's momentum and take-off speed. Landing rows stay the reference's: there
+contact is what takes the momentum away.
+
 A row's velocities change only by a rigid-body rotation and translation of the whole body (the
 root's angular and linear velocity; joint velocities keep theirs), so its pose and limb motion are
 the reference's. The reward still compares against the reference's own velocities. DeepMimic and
@@ -44,6 +55,8 @@ MIN_FLIGHT_SECONDS = 0.2
 FLIGHT_G_TOLERANCE = 0.1
 FLIGHT_FIT_M = 0.005  # rms of the fit: the jump's flight 0.4 cm, dance_b's hops 0.07 cm
 GRAVITY = 9.81
+# Take-off rows joining a flight: at most 0.1 s before it.
+TAKEOFF_MAX_ROWS = 3
 
 
 @dataclass
@@ -53,6 +66,7 @@ class Flight:
     momentum_after: float  # |L*|
     com_vertical_acceleration: float  # the reference's fitted CoM acceleration (physics: -9.81)
     root_angular_velocity_change: float  # the largest |delta omega| applied to a row (rad/s)
+    takeoff_rows: int = 0  # rows before rows[0] made ballistic too (take-off on the flight's arc)
 
 
 @dataclass
@@ -163,15 +177,33 @@ def ballistic_start_velocities(model: mujoco.MjModel, qpos: np.ndarray, qvel: np
         # The parabola under g through the reference's centre of mass: z - (-g t^2 / 2) is linear in t.
         lift = com[a:b].copy()
         lift[:, 2] += 0.5 * GRAVITY * t ** 2
-        slope = np.polyfit(t, lift, 1)[0]
+        slope, intercept = np.polyfit(t, lift, 1)
+        arc = intercept[2] + slope[2] * t - 0.5 * GRAVITY * t ** 2
+        tolerance = float(np.abs(com[a:b, 2] - arc).max())  # as close to the arc as the flight's own rows
+        takeoff = _takeoff_rows(com[:, 2], a, slope[2], intercept[2], dt, tolerance,
+                                report.flights[-1].rows[1] + 1 if report.flights else 0)
         largest = 0.0
-        for j, k in enumerate(range(a, b)):
-            d_omega = inverse[j] @ (target - measured[k][3])
-            velocity = slope - np.array([0.0, 0.0, GRAVITY * t[j]])
+        for k in range(a - takeoff, b):
+            t_k = (k - a) * dt
+            d_omega = (inverse[k - a] if k >= a else np.linalg.inv(kin.inertia(qpos[k], qvel[k], com[k], measured[k][3]))) @ (target - measured[k][3])
+            velocity = slope - np.array([0.0, 0.0, GRAVITY * t_k])
             basis = kin.rigid_basis(qpos[k], com[k])
             out[k] = qvel[k] + d_omega @ basis[:3] + (velocity - measured[k][2]) @ basis[3:]
             largest = max(largest, float(np.linalg.norm(d_omega)))
         norms = [float(np.linalg.norm(measured[k][3])) for k in range(a, b)]
         accel = 2.0 * float(np.polyfit(t, com[a:b, 2], 2)[0])
-        report.flights.append(Flight((a, b - 1), (min(norms), max(norms)), float(np.linalg.norm(target)), accel, largest))
+        report.flights.append(Flight((a, b - 1), (min(norms), max(norms)), float(np.linalg.norm(target)), accel, largest, takeoff))
     return out, report
+
+
+def _takeoff_rows(com_z: np.ndarray, a: int, vz0: float, z0: float, dt: float, tolerance: float, floor: int) -> int:
+    """How many rows just before row `a` (not below row `floor`, the previous flight's end) have
+    their centre of mass on the flight's parabola z0 + vz0 t - g t^2 / 2 (t from row a) within
+    `tolerance`, counting back from a and stopping at the first that is not."""
+    count = 0
+    while count < TAKEOFF_MAX_ROWS and a - count - 1 >= floor:
+        t = -(count + 1) * dt
+        if abs(com_z[a - count - 1] - (z0 + vz0 * t - 0.5 * GRAVITY * t * t)) > tolerance:
+            break
+        count += 1
+    return count

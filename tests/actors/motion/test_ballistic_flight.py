@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
-from actors.motion.ballistic_flight import GRAVITY, ballistic_start_velocities, flight_stretches
+from actors.motion.ballistic_flight import GRAVITY, TAKEOFF_MAX_ROWS, _takeoff_rows, ballistic_start_velocities, flight_stretches
 from actors.motion.formats.io import load_motion
 
 
@@ -44,9 +44,48 @@ def test_backflip_flight_gets_one_momentum_and_a_parabola(backflip_env):
     # Only the whole body's rigid motion changed: the joints move as the reference's do.
     np.testing.assert_array_equal(qvel[:, 6:], track.qvel[:, 6:])
     changed = np.flatnonzero(np.any(qvel != track.qvel, axis=1))
-    in_flights = np.concatenate([np.arange(f.rows[0], f.rows[1] + 1) for f in report.flights])
+    in_flights = np.concatenate([np.arange(f.rows[0] - f.takeoff_rows, f.rows[1] + 1) for f in report.flights])
     assert set(changed) <= set(in_flights) and len(changed) > 0
     assert np.abs(np.array([m for m, _ in before])[:, 1]).max() > np.abs(momenta[0, 1]) + 10
+
+
+def test_the_backflips_takeoff_rows_carry_the_flights_momentum_and_speed(backflip_env):
+    """Rows 18-19 (phases .34-.36) touch the floor with the toes but sit on the flight's arc: a start
+    there must already carry the flight's rotation, as no push is left to make it."""
+    track, model = backflip_env.track, backflip_env.model
+    qvel, report = ballistic_start_velocities(model, track.qpos, track.qvel, track.dt)
+    first = report.flights[0]
+    a = first.rows[0]
+    assert 1 <= first.takeoff_rows <= TAKEOFF_MAX_ROWS
+    takeoff = range(a - first.takeoff_rows, a)
+    assert track.start_index(0.343) in takeoff
+    for k in takeoff:
+        before, _ = _momentum_and_com_velocity(model, track.qpos[k], track.qvel[k])
+        after, velocity = _momentum_and_com_velocity(model, track.qpos[k], qvel[k])
+        assert np.linalg.norm(before) < 0.6 * first.momentum_after  # the reference's take-off lags the flight
+        assert np.linalg.norm(after) == pytest.approx(first.momentum_after, rel=1e-6)
+        _, first_velocity = _momentum_and_com_velocity(model, track.qpos[a], qvel[a])
+        assert velocity[2] == pytest.approx(first_velocity[2] + GRAVITY * track.dt * (a - k), abs=1e-6)  # on the parabola
+    assert np.array_equal(qvel[a - first.takeoff_rows - 1], track.qvel[a - first.takeoff_rows - 1])  # the push itself is the reference's
+
+
+def test_takeoff_rows_are_those_on_the_arc_counting_back_and_stop_at_the_first_off_it():
+    dt, z0, vz0 = 1 / 30, 1.0, 2.0
+    arc = lambda k: z0 + vz0 * (k * dt) - 0.5 * GRAVITY * (k * dt) ** 2  # noqa: E731
+    z = np.array([arc(k - 10) for k in range(20)])
+    assert _takeoff_rows(z, 10, vz0, z0, dt, 0.01, 0) == TAKEOFF_MAX_ROWS  # all on it: capped
+    z[8] += 0.05  # two rows back is off the arc: only the row before counts
+    assert _takeoff_rows(z, 10, vz0, z0, dt, 0.01, 0) == 1
+    assert _takeoff_rows(z, 10, vz0, z0, dt, 0.1, 0) == TAKEOFF_MAX_ROWS  # a looser flight takes it in
+    assert _takeoff_rows(z, 10, vz0, z0, dt, 0.1, 9) == 1  # never into the previous flight
+
+
+def test_only_the_backflip_gets_takeoff_rows_among_the_seed_clips_with_flights():
+    """The tolerance is the flight's own distance from its arc; the tight flights of the solved
+    clips (jump, run, dance hops) keep the reference's take-off velocities."""
+    for clip in ("deepmimic:jump", "deepmimic:run", "deepmimic:dance_b"):
+        flights = ImitationEnv(load_motion(clip), EnvConfig()).track.flights.flights
+        assert flights and all(f.takeoff_rows == 0 for f in flights), clip
 
 
 def test_the_env_starts_from_ballistic_velocities_by_default():
