@@ -10,7 +10,8 @@ DeepMimic's contact rule (any link but the feet, and those the clip allows, on t
 plus a pelvis-height floor. Keys: normalized_return (+ _std), fall_rate, episode_length,
 episode_seconds, joint_rotation_error_rad, end_effector_error_m, distance_ratio (looped clips),
 divergences, episodes, fall_phases, fall_starts, start_returns
-(each episode's start phase and normalized return); with --push: pushes, push_impulse_ns, push_duration_s, push_episodes,
+(each episode's start phase and normalized return; the starts under half the median are also
+named in one line on stderr); with --push: pushes, push_impulse_ns, push_duration_s, push_episodes,
 push_survival_rate; for a clip that does not loop, first_frame: the episode from the clip's first
 frame to its end (normalized_return, fell, episode_seconds, clip_seconds, joint and end-effector
 errors), also said in one line on stderr beside the phase average. `services/training/evaluation.py`
@@ -99,12 +100,31 @@ def run(args) -> int:
     result = evaluate_run(args.run, episodes, seed, onnx=args.onnx, motion=args.motion, pushes=pushes,
                           push_impulse=impulse, push_duration_s=duration, checkpoint=args.checkpoint,
                           physics_hz=physics_hz)
-    if "first_frame" in result:
-        import sys
+    import sys
 
+    if "first_frame" in result:
         print(result_line(result), file=sys.stderr)
+    weak = weak_starts_line(result)
+    if weak:
+        print(weak, file=sys.stderr)
     print(json.dumps(result))
     return 0
+
+
+def weak_starts_line(result: dict) -> str | None:
+    """The starts scoring under half the median start (`start_returns`), for people; None if none.
+    A mean over phases hides whether a few starts fail outright or all track a little worse."""
+    starts = result.get("start_returns") or []
+    if not starts:
+        return None
+    scores = sorted(score for _, score in starts)
+    median = scores[len(scores) // 2]
+    weak = [(phase, score) for phase, score in starts if score < 0.5 * median]
+    if not weak:
+        return None
+    listed = ", ".join(f"{phase:.3f} ({score:.2f})" for phase, score in weak)
+    return (f"{len(weak)} of {len(starts)} starts score under half the median ({median:.2f}): phase (normalised return) "
+            f"{listed}; `sfv render RUN --phase P` shows one")
 
 
 def result_line(result: dict) -> str:

@@ -428,3 +428,13 @@ def test_blas_threads_are_given_back_after_an_evaluation(stand):
                "obs_clip": np.array(5.0, np.float32), "action_std": np.ones(28, np.float32),
                "layer0.weight": np.zeros((OBS_DIM, 28), np.float32), "layer0.bias": np.zeros(28, np.float32)})
     assert [(p["internal_api"], p["num_threads"]) for p in threadpool_info()] == before
+
+
+def test_the_weak_starts_line_names_the_starts_under_half_the_median():
+    from services.commands.eval import weak_starts_line
+
+    result = {"start_returns": [[0.0, 0.84], [0.25, 0.02], [0.5, 0.83], [0.75, 0.5]]}
+    line = weak_starts_line(result)
+    assert line.startswith("1 of 4 starts") and "0.250 (0.02)" in line and "0.750" not in line
+    assert weak_starts_line({"start_returns": [[0.0, 0.8], [0.5, 0.7]]}) is None
+    assert weak_starts_line({}) is None  # an ONNX-era result without the field
