@@ -24,9 +24,10 @@ push-off, `flight_stretches`) gets, for start states only:
 - the centre of mass's velocity on the parabola under g that fits the reference's centre of mass
   positions best.
 The take-off rows just before a flight join it (`takeoff_rows`): up to TAKEOFF_MAX_ROWS rows whose
-centre of mass lies within TAKEOFF_FIT_M of the flight's parabola carried back, stopping at the
-first that does not. The backflip's rows 18-19 (phases .34-.36) are such rows: the toes still touch
-but the centre of mass is 1-2 cm off the flight's arc, and the reference carries 18-19 kg m^2/s and
+centre of mass lies as close to the flight's parabola carried back as the flight's own rows lie to
+it, stopping at the first that does not. The backflip's rows 18-19 (phases .34-.36) are such rows:
+the toes still touch but the centre of mass is 2.6 and 0.7 cm off the arc (its flight rows up to
+about 3 cm; row 17, still pushing, 7 cm), and the reference carries 18-19 kg m^2/s and
 1.3-1.6 m/s upwards there, against the 37-40 kg m^2/s and 2.2 m/s the trained policy has at the same
 phase from the first frame. A start there is in the air one step later with half the rotation: at
 20 M samples the start at .343 was one of `sfv eval`'s three falls (on its back at the landing, .648)
@@ -171,22 +172,21 @@ def ballistic_start_velocities(model: mujoco.MjModel, qpos: np.ndarray, qvel: np
     report = FlightReport()
     for a, b in flight_stretches(airborne, com[:, 2], dt):
         t = np.arange(b - a) * dt
-        inertias = [kin.inertia(qpos[k], qvel[k], com[k], measured[k][3]) for k in range(a, b)]
-        inverse = [np.linalg.inv(i) for i in inertias]
-        target = np.linalg.solve(sum(inverse), sum(inv @ measured[k][3] for inv, k in zip(inverse, range(a, b))))
         # The parabola under g through the reference's centre of mass: z - (-g t^2 / 2) is linear in t.
         lift = com[a:b].copy()
         lift[:, 2] += 0.5 * GRAVITY * t ** 2
         slope, intercept = np.polyfit(t, lift, 1)
-        arc = intercept[2] + slope[2] * t - 0.5 * GRAVITY * t ** 2
-        tolerance = float(np.abs(com[a:b, 2] - arc).max())  # as close to the arc as the flight's own rows
+        tolerance = float(np.abs(com[a:b, 2] - _arc(intercept[2], slope[2], t)).max())  # the flight's own distance
         takeoff = _takeoff_rows(com[:, 2], a, slope[2], intercept[2], dt, tolerance,
                                 report.flights[-1].rows[1] + 1 if report.flights else 0)
+        first = a - takeoff
+        inverse = [np.linalg.inv(kin.inertia(qpos[k], qvel[k], com[k], measured[k][3])) for k in range(first, b)]
+        flight = inverse[takeoff:]  # L* is fitted on the flight's rows only
+        target = np.linalg.solve(sum(flight), sum(inv @ measured[k][3] for inv, k in zip(flight, range(a, b))))
         largest = 0.0
-        for k in range(a - takeoff, b):
-            t_k = (k - a) * dt
-            d_omega = (inverse[k - a] if k >= a else np.linalg.inv(kin.inertia(qpos[k], qvel[k], com[k], measured[k][3]))) @ (target - measured[k][3])
-            velocity = slope - np.array([0.0, 0.0, GRAVITY * t_k])
+        for j, k in enumerate(range(first, b)):
+            d_omega = inverse[j] @ (target - measured[k][3])
+            velocity = slope - np.array([0.0, 0.0, GRAVITY * (k - a) * dt])
             basis = kin.rigid_basis(qpos[k], com[k])
             out[k] = qvel[k] + d_omega @ basis[:3] + (velocity - measured[k][2]) @ basis[3:]
             largest = max(largest, float(np.linalg.norm(d_omega)))
@@ -196,6 +196,11 @@ def ballistic_start_velocities(model: mujoco.MjModel, qpos: np.ndarray, qvel: np
     return out, report
 
 
+def _arc(z0: float, vz0: float, t):
+    """Height on the flight's parabola under g at time t from its first row."""
+    return z0 + vz0 * t - 0.5 * GRAVITY * t * t
+
+
 def _takeoff_rows(com_z: np.ndarray, a: int, vz0: float, z0: float, dt: float, tolerance: float, floor: int) -> int:
     """How many rows just before row `a` (not below row `floor`, the previous flight's end) have
     their centre of mass on the flight's parabola z0 + vz0 t - g t^2 / 2 (t from row a) within
@@ -203,7 +208,7 @@ def _takeoff_rows(com_z: np.ndarray, a: int, vz0: float, z0: float, dt: float, t
     count = 0
     while count < TAKEOFF_MAX_ROWS and a - count - 1 >= floor:
         t = -(count + 1) * dt
-        if abs(com_z[a - count - 1] - (z0 + vz0 * t - 0.5 * GRAVITY * t * t)) > tolerance:
+        if abs(com_z[a - count - 1] - _arc(z0, vz0, t)) > tolerance:
             break
         count += 1
     return count

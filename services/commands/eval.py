@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 
 # The same numbers as services.training.evaluation's (imported lazily: every sfv command builds this parser).
 DEFAULT_EPISODES = 32
@@ -100,8 +101,6 @@ def run(args) -> int:
     result = evaluate_run(args.run, episodes, seed, onnx=args.onnx, motion=args.motion, pushes=pushes,
                           push_impulse=impulse, push_duration_s=duration, checkpoint=args.checkpoint,
                           physics_hz=physics_hz)
-    import sys
-
     if "first_frame" in result:
         print(result_line(result), file=sys.stderr)
     weak = weak_starts_line(result)
