@@ -68,7 +68,7 @@ def train_arm(args, arm: str) -> None:
 
 def arm_result(run_dir: Path, thresholds=THRESHOLDS) -> dict:
     """Curves, times, samples to each NR threshold and frame coverage of one arm's metrics.jsonl."""
-    from services.bench.learning_suite import read_curve, samples_to_threshold
+    from services.bench.learning_report import read_curve, samples_to_threshold
     from services.training.run_dir import read_metrics
 
     rows = [r for r in read_metrics(run_dir) if "samples" in r and "samples_per_s" in r]

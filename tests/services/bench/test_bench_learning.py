@@ -121,7 +121,7 @@ def test_script_calls_the_same_command(tmp_path):
 
 def test_threshold_and_plot_from_eval_rows(tmp_path):
     """The eval/ rows path (the trainer writes them every --eval-every samples): curve, first crossing, plot."""
-    from services.bench.learning_suite import markdown_table, minutes_to_threshold, plot, read_curve, samples_to_threshold
+    from services.bench.learning_report import markdown_table, minutes_to_threshold, plot, read_curve, samples_to_threshold
 
     rows = [{"samples": 4096 * i, "normalized_return": 0.1 * i, "time": 100.0 + 2.0 * i, "samples_per_s": 2048.0} for i in range(1, 6)]
     rows[1]["eval/normalized_return"], rows[1]["eval/fall_rate"] = 0.5, 0.4
