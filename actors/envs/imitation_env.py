@@ -61,6 +61,7 @@ class EnvConfig:
     action_parameterisation: str = field(default="exp_map", metadata={"choices": ("exp_map", "axis_angle"), "help": "exp_map (28-D, DeepMimic's current code and MimicKit) or axis_angle (36-D, SFV's, with a dead point at zero). Walk, ASI, absolute targets, eval NR at 1 M samples: exp_map .23, axis_angle .07 (every episode falls in both)"})
     loop_closure_s: float = field(default=0.0, metadata={"help": "close a looped clip's wrap (its last pose made its first, the mismatch blended over this many seconds at each end; actors/motion/loop_closure.py); `sfv motion check` reports the mismatch: 1.01 rad on the spinkick, .47 on the cartwheel. Pure PD tracking through the wrap, open / closed at 0.3 s, steps survived: walk 37 / 43, cartwheel 47 / 41, spinkick 35 / 31: off until trainings say; 0: the clip as recorded"})
     flight_starts: str = field(default="ballistic", metadata={"choices": FLIGHT_STARTS, "help": "velocities of start states in a clip's flight: ballistic (one angular momentum per flight, the centre of mass on a parabola under g, take-off rows on the flight's arc included; actors/motion/ballistic_flight.py) or reference (the clip's kinematic velocities, DeepMimic's: the backflip's flight carries 25 -> 66 -> 24 kg m^2/s on our body, and 5 of its 6 sfv eval falls at 14 M started there; the same policy 3 M samples on with ballistic starts: sfv eval .694 / 6 falls -> .759 / 4)"})
+    start_velocity_median_rows: int = field(default=3, metadata={"help": "start states' velocities are the median over this many control rows (odd; 1: the clip's frame differences as they are, DeepMimic's): a clip's jitter and repeated frames become one-row velocity spikes (the roll's root rises at 0.71, 1.55, 0.12 m/s on three rows), a median removes them and keeps take-offs and landings; the reward keeps the reference's own (actors/motion/start_velocity_filter.py). Trained policies, sfv eval, 1 / 3 rows: roll .648 / .733, cartwheel .855 with 3 falls / .909 with 1, jump .935 / .909 with 1 fall, backflip .805 both (a Gaussian of one row: roll .768, but 2 falls on the jump and the cartwheel)"})
     target_lead_s: float = field(default=1.0 / 15.0, metadata={"help": "residual actions add to the reference pose this long after the step they act towards (rounded to control steps), not to that step's pose: PD control lags its target by about kd/kp = 0.1 s, so the reference one step ahead leaves fast motions trailing by up to the whole residual range. Zero actions from RSI, mean end-effector reward term over the first 15 steps at a lead of 0 / 1 / 2 / 3 steps: dance_a .26/.38/.43/.30, backflip .28/.38/.43/.37, walk .56/.63/.65/.65. 0: the step's own pose (before this setting)"})
     residual_action_scale: float | None = field(default=0.5, metadata={"help": "PD target = reference target of the step acted towards + this (rad) x action (dynamic-camera paper eq. 1); None: absolute targets. Walk, ASI, exp_map, eval NR at 1 M samples: .91 with no falls residual, .23 (all episodes falling) absolute"})
     residual_scale_per_joint: bool = field(default=True, metadata={"help": "scale each joint's residual range by its character's factor (humanoid3d: 1 everywhere; g1: effort / kp / 0.5, so +-1 reaches each motor's effort limit at rest, actors/character/g1_spec.py). G1 run, in-training eval NR at 1 / 2 M: .33 / .84 per joint, .023 / .026 with 0.5 rad everywhere (flat to 5.7 M); false: residual_action_scale rad on every joint (G1 runs written before this setting)"})
@@ -98,6 +99,8 @@ class EnvConfig:
             raise ValueError(f"ground contact links {unknown} are not links of the {self.character} ({', '.join(character.link_names)})")
         if self.flight_starts not in FLIGHT_STARTS:
             raise ValueError(f"flight_starts must be one of {', '.join(FLIGHT_STARTS)}, got {self.flight_starts!r}")
+        if self.start_velocity_median_rows < 1 or self.start_velocity_median_rows % 2 == 0:
+            raise ValueError(f"start_velocity_median_rows must be an odd number of rows >= 1, got {self.start_velocity_median_rows}")
         if not self.loop_closure_s >= 0:
             raise ValueError(f"loop_closure_s must be >= 0, got {self.loop_closure_s}")
         if not self.target_lead_s >= 0:
@@ -150,7 +153,8 @@ class ImitationEnv(CoreParts, gym.Env):
         self.model = self.humanoid.model if self.scene is None else copy.copy(self.humanoid.model)
         self.data = mujoco.MjData(self.model)
         self.substeps = config.substeps
-        self.track = track or ReferenceTrack(motion, self.humanoid, 1.0 / config.control_hz, config.horizon_s, config.flight_starts)
+        self.track = track or ReferenceTrack(motion, self.humanoid, 1.0 / config.control_hz, config.horizon_s, config.flight_starts,
+                                             config.start_velocity_median_rows)
         self.layout = StateLayout(self.humanoid, config.state_space)
         feature_dim = observation_dim(len(config.reference_obs_steps), self.humanoid.character)
         scene_dim = 0 if self.scene is None else self.scene.vector_dim
@@ -338,9 +342,9 @@ class ImitationEnv(CoreParts, gym.Env):
         return self.layout.state_vector(self.track.qpos[row], self.track.qvel[row])
 
     def set_reference_state(self, row: int) -> None:
-        """Put the character exactly on the reference at a table row (playback)."""
+        """Put the character exactly on the reference at a table row, its own velocities (playback)."""
         self.data.qpos[:] = self.track.qpos[row]
-        self.data.qvel[:] = self.track.qvel[row]
+        self.data.qvel[:] = self.track.reference_qvel[row]
         update_kinematics(self.model, self.data)
 
     def reward_at(self, row: int) -> float:

@@ -63,7 +63,8 @@ class VectorImitationEnv(CoreParts):
         the state as drawn, which is what ASI's gradient needs. 0: at the start's phase."""
         motion = env_reference(motion, config)  # once for the M envs (a clip retargeted or closed here)
         humanoid = build_body(config, motion)  # one compiled model for the M envs (a scene's env copies its own)
-        track = ReferenceTrack(motion, humanoid, 1.0 / config.control_hz, config.horizon_s, config.flight_starts)
+        track = ReferenceTrack(motion, humanoid, 1.0 / config.control_hz, config.horizon_s, config.flight_starts,
+                               config.start_velocity_median_rows)
         self.envs = [ImitationEnv(motion, config, humanoid, track) for _ in range(num_envs)]
         self.num_envs = num_envs
         self.starts = starts

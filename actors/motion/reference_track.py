@@ -4,9 +4,10 @@ Episodes start on the control-step grid (k0 * dt), so the reference at every ste
 episode is a row of this table. Each row holds the reference's qpos / qvel (to start an
 episode on it), its PD targets (the actuator lengths of the reference pose, what residual
 actions add to) and the reward's kinematic features, computed once with MuJoCo itself on a
-scratch MjData, so the reward compares like with like. Start velocities in a flight are made
-ballistic (`actors/motion/ballistic_flight.py`) unless `flight_starts` is "reference"; the reward's
-features keep the reference's own.
+scratch MjData, so the reward compares like with like. Start velocities lose the clip's one-row
+spikes (`actors/motion/start_velocity_filter.py`, a median over `start_velocity_median_rows`), then
+are made ballistic in a flight (`actors/motion/ballistic_flight.py`) unless `flight_starts` is "reference";
+the reward's features and `reference_qvel` (playback, measurements) keep the reference's own.
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from actors.character.features import FeatureExtractor, RewardFeatures, pose_obs
 from actors.character.humanoid3d import Humanoid
 from actors.motion.ballistic_flight import FlightReport, ballistic_start_velocities
 from actors.motion.reference_motion import ReferenceMotion
+from actors.motion.start_velocity_filter import median_start_velocities
 from actors.character.state import StateLayout
 
 FLIGHT_STARTS = ("ballistic", "reference")
@@ -26,7 +28,7 @@ FLIGHT_STARTS = ("ballistic", "reference")
 
 class ReferenceTrack:
     def __init__(self, motion: ReferenceMotion, humanoid: Humanoid, control_dt: float, horizon_s: float,
-                 flight_starts: str = "ballistic"):
+                 flight_starts: str = "ballistic", start_velocity_median_rows: int = 1):
         if flight_starts not in FLIGHT_STARTS:
             raise ValueError(f"flight_starts must be one of {FLIGHT_STARTS}, got {flight_starts!r}")
         self.motion = motion
@@ -69,6 +71,8 @@ class ReferenceTrack:
             self.features.values[k] = features.reward_features_of(scratch).values[0]
             features.observations(self.phase[k], observation)  # the rows just captured
             self.pose_obs[k] = observation[0, :pose_width]
+        self.reference_qvel = self.qvel.copy()  # the clip's own velocities; self.qvel: what episodes start with
+        self.qvel = median_start_velocities(self.qvel, start_velocity_median_rows, self.start_steps if motion.loop else None)
         self.flights = FlightReport()
         if flight_starts == "ballistic":
             self.qvel, self.flights = ballistic_start_velocities(model, self.qpos, self.qvel, control_dt)

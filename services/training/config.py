@@ -174,6 +174,9 @@ def _upgrade(d: dict) -> dict:
     if env.get("character") == "g1" and "residual_scale_per_joint" not in env:  # written before the G1's per-joint residual range
         env["residual_scale_per_joint"] = False
         d["env"] = env
+    if env and "start_velocity_median_rows" not in env:  # written before start velocities lost their one-row spikes
+        env["start_velocity_median_rows"] = 1
+        d["env"] = env
     if env and "flight_starts" not in env:  # written before flights' start states were made ballistic
         env["flight_starts"] = "reference"
         d["env"] = env

@@ -43,7 +43,7 @@ def reference_flight(clip: str) -> dict:
     com_vz = np.zeros(rows)
     for row in range(rows):
         data.qpos[:] = track.qpos[row]
-        data.qvel[:] = track.qvel[row]
+        data.qvel[:] = track.reference_qvel[row]
         mujoco.mj_forward(model, data)
         mujoco.mj_subtreeVel(model, data)
         airborne[row] = data.ncon == 0
@@ -65,7 +65,7 @@ def reference_flight(clip: str) -> dict:
             "angular_momentum_change_over_mean_norm": round(float(np.linalg.norm(h - mean, axis=1).max() / max(np.linalg.norm(mean), 1e-9)), 3),
             "com_vertical_acceleration": round(float(np.polyfit(np.arange(b - a) * dt, com_vz[a:b], 1)[0]), 2),
         })
-    _, ballistic = ballistic_start_velocities(model, track.qpos[:rows], track.qvel[:rows], dt)
+    _, ballistic = ballistic_start_velocities(model, track.qpos[:rows], track.reference_qvel[:rows], dt)
     return {"clip": clip, "start_rows": int(rows),
             "ballistic_flights": [{"phases": [round(float(track.phase[f.rows[0]]), 3), round(float(track.phase[f.rows[1]]), 3)],
                                    "angular_momentum_norm": round(f.momentum_after, 2)} for f in ballistic.flights],

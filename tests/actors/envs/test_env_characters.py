@@ -86,9 +86,10 @@ def test_g1_reference_state_reset_reproduces_the_robot_motion(g1_env, g1_walk):
         _, info = env.reset(seed=seed, options={"init": "rsi"})
         k = info["start_step"]
         np.testing.assert_allclose(env.data.qpos, qpos[k], atol=1e-9)
-        if 0 < k < robot.num_frames - 1:  # joint rates: the central difference of the frames
+        np.testing.assert_allclose(env.data.qvel, env.track.qvel[k], atol=1e-9)  # the start's (spikes filtered)
+        if 0 < k < robot.num_frames - 1:  # the reference's joint rates: the central difference of the frames
             rates = (robot.joint_pos[k + 1] - robot.joint_pos[k - 1]) * robot.fps / 2.0
-            np.testing.assert_allclose(env.data.qvel[6:], rates, atol=1e-6)
+            np.testing.assert_allclose(env.track.reference_qvel[k, 6:], rates, atol=1e-6)
     env.reset(options={"init": "fsi"})
     np.testing.assert_allclose(env.data.qpos, qpos[0], atol=1e-9)
     # The ASI state vector of a reference row puts the same pose back.

@@ -35,8 +35,8 @@ def root_term(data, track, row, offset_xy):
     ref_pos = track.qpos[row, :3] + np.append(offset_xy, 0.0)
     dp = data.qpos[:3] - ref_pos
     angle = 2.0 * np.arccos(min(1.0, abs(float(data.qpos[3:7] @ track.qpos[row, 3:7]))))
-    dv = data.qvel[:3] - track.qvel[row, :3]
-    dw = data.qvel[3:6] - track.qvel[row, 3:6]
+    dv = data.qvel[:3] - track.reference_qvel[row, :3]
+    dw = data.qvel[3:6] - track.reference_qvel[row, 3:6]
     return float(np.exp(-5.0 * (dp @ dp + 0.1 * angle**2 + 0.01 * dv @ dv + 0.001 * dw @ dw)))
 
 
@@ -46,7 +46,7 @@ def guided_step(env, lag):
     row = env.row
     env.data.qpos[:] = env.track.qpos[row]
     env.data.qpos[:2] += lag
-    env.data.qvel[:] = env.track.qvel[row]
+    env.data.qvel[:] = env.track.reference_qvel[row]
     update_kinematics(env.model, env.data)
     return env.step(np.zeros(env.action_space.shape))
 
@@ -135,7 +135,7 @@ def test_vector_env_syncs_each_env_like_the_single_env(clips, humanoid):
             row = env.row
             env.data.qpos[:] = env.track.qpos[row]
             env.data.qpos[:2] += SHIFT if (i == 0 and step >= LAG_FROM) else 0.0
-            env.data.qvel[:] = env.track.qvel[row]
+            env.data.qvel[:] = env.track.reference_qvel[row]
             update_kinematics(env.model, env.data)
         _, rewards, terminated, truncated, _ = venv.step(np.zeros((2, venv.action_dim)))
         assert not terminated.any() and not truncated.any()
