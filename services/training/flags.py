@@ -146,6 +146,7 @@ SAFE_ON_RESUME = frozenset({
     "ppo.policy_lr", "ppo.value_lr", "ppo.update_epochs", "ppo.target_kl", "ppo.batch_size", "ppo.minibatch_size",
     "ppo.max_grad_norm", "ppo.clip_coef", "ppo.sgd_momentum", "ppo.tuple_sampling", "ppo.tuples_per_episode",
     "ppo.policy_lr_final", "ppo.action_std_final", "ppo.anneal_samples", "ppo.desired_kl",
+    "env.start_velocity_median_rows",  # where episodes start, not what the networks or the reward are
 })
 SKIPPED = frozenset({"out"})  # its own flag: required unless --print-config or a config file gives it
 
