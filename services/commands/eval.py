@@ -111,14 +111,11 @@ def run(args) -> int:
 
 
 def weak_starts_line(result: dict) -> str | None:
-    """The starts scoring under half the median start (`start_returns`), for people; None if none.
-    A mean over phases hides whether a few starts fail outright or all track a little worse."""
+    """The starts scoring under half the median start (`start_returns`), for people; None if none."""
+    from services.training.evaluation import weak_starts
+
     starts = result.get("start_returns") or []
-    if not starts:
-        return None
-    scores = sorted(score for _, score in starts)
-    median = scores[len(scores) // 2]
-    weak = [(phase, score) for phase, score in starts if score < 0.5 * median]
+    median, weak = weak_starts(starts)
     if not weak:
         return None
     listed = ", ".join(f"{phase:.3f} ({score:.2f})" for phase, score in weak)

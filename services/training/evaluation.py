@@ -96,6 +96,17 @@ def start_phases(episodes: int) -> np.ndarray:
     return np.arange(episodes) / episodes
 
 
+def weak_starts(start_returns: list, fraction: float = 0.5) -> tuple[float | None, list]:
+    """The median start's normalised return and the (phase, return) of the starts scoring under
+    `fraction` of it: a mean over phases hides whether a few starts fail outright or all track a
+    little worse."""
+    if not start_returns:
+        return None, []
+    scores = sorted(score for _, score in start_returns)
+    median = scores[len(scores) // 2]
+    return median, [(phase, score) for phase, score in start_returns if score < fraction * median]
+
+
 def strict_fall_detector(env: ImitationEnv) -> FallDetector:
     """The clip's strict fall rule (contacts + pelvis floor) for this env's humanoid."""
     return FallDetector.for_clip(env.humanoid, env.motion.name, env.config.ground_contact_links, strict=True)

@@ -19,18 +19,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
 
 from learner.errors import SfvError  # noqa: E402
-from services.training.evaluation import evaluate_policy, make_eval_env  # noqa: E402
+from services.training.evaluation import evaluate_policy, make_eval_env, weak_starts  # noqa: E402
 from services.training.policy_source import load_policy_source  # noqa: E402
 from services.training.run_dir import write_json_atomic  # noqa: E402
-
-
-def low_starts(start_returns: list, fraction: float = 0.5) -> list:
-    """[phase, NR] of the starts scoring under `fraction` of the median NR."""
-    values = sorted(nr for _, nr in start_returns)
-    if not values:
-        return []
-    median = values[len(values) // 2]
-    return [[round(p, 3), round(nr, 3)] for p, nr in start_returns if nr < fraction * median]
 
 
 def probe(run: str, windows: list[int], episodes: int) -> list[dict]:
@@ -42,9 +33,10 @@ def probe(run: str, windows: list[int], episodes: int) -> list[dict]:
         env = make_eval_env(source.reference(), dataclasses.replace(source.env_config, start_velocity_median_rows=window))
         with threadpool_limits(1, user_api="blas"):
             result = evaluate_policy(source.policy, env, episodes)
+        low = [[round(phase, 3), round(nr, 3)] for phase, nr in weak_starts(result["start_returns"])[1]]
         out.append({"median_rows": window, "normalized_return": round(result["normalized_return"], 4),
                     "falls": round(result["fall_rate"] * episodes), "episodes": episodes,
-                    "low_starts": low_starts(result["start_returns"]), "start_returns": result["start_returns"]})
+                    "low_starts": low, "start_returns": result["start_returns"]})
         print(f"median over {window} rows: NR {result['normalized_return']:.3f}, falls {out[-1]['falls']} / {episodes}, "
               f"low starts {out[-1]['low_starts']}", flush=True)
     return out
