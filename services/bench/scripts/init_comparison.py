@@ -31,10 +31,10 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[3]))
 
 from learner.errors import SfvError  # noqa: E402
+from services.bench.learning_suite import RESULTS_FILE  # noqa: E402
 from services.training.flags import whole_number  # noqa: E402
 from services.training.run_dir import read_metrics, write_json_atomic  # noqa: E402
 
-RESULTS_FILE = "learning.json"  # the learning suite's record (services/bench/learning_suite.py)
 ASI_KEYS = ("asi/mean_shift_sigma", "asi/std_ratio")
 SEPARATED_SE = 2.0  # a gap of at least this many standard errors counts as an order the data shows
 
