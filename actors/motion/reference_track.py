@@ -20,7 +20,7 @@ from actors.character.features import FeatureExtractor, RewardFeatures, pose_obs
 from actors.character.humanoid3d import Humanoid
 from actors.motion.ballistic_flight import FlightReport, ballistic_start_velocities
 from actors.motion.reference_motion import ReferenceMotion
-from actors.motion.start_velocity_filter import median_start_velocities
+from actors.motion.start_velocity_filter import MEDIAN_ROWS, median_start_velocities
 from actors.character.state import StateLayout
 
 FLIGHT_STARTS = ("ballistic", "reference")
@@ -28,7 +28,7 @@ FLIGHT_STARTS = ("ballistic", "reference")
 
 class ReferenceTrack:
     def __init__(self, motion: ReferenceMotion, humanoid: Humanoid, control_dt: float, horizon_s: float,
-                 flight_starts: str = "ballistic", start_velocity_median_rows: int = 1):
+                 flight_starts: str = "ballistic", start_velocity_median_rows: int = MEDIAN_ROWS):
         if flight_starts not in FLIGHT_STARTS:
             raise ValueError(f"flight_starts must be one of {FLIGHT_STARTS}, got {flight_starts!r}")
         self.motion = motion

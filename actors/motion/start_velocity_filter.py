@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import numpy as np
 
+MEDIAN_ROWS = 3  # the default window: one row either side removes a one-row spike and keeps a step
+
 
 def median_start_velocities(qvel: np.ndarray, window: int, cycle_rows: int | None) -> np.ndarray:
     """(rows, nv) velocities, each the median over `window` rows centred on it (1: a copy).

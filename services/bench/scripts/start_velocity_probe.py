@@ -56,7 +56,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("run", help="a run directory (its best.pt and config.json)")
     p.add_argument("--windows", default="1,3", help="median windows (control rows) of start velocities to compare; 1: the clip's own")
-    p.add_argument("--episodes", type=int, default=32, help="strict episodes per sigma, at evenly spaced phases")
+    p.add_argument("--episodes", type=int, default=32, help="strict episodes per window, at evenly spaced phases")
     p.add_argument("--out", default=None, help="JSON file for the results")
     args = p.parse_args(argv)
     try:
