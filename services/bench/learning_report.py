@@ -194,7 +194,7 @@ def plot(doc: dict, out: Path, skills=()) -> Path:
         ax.set_ylabel("normalised return")
         ax.grid(alpha=0.3)
         if runs:
-            ax.legend(loc="lower right", fontsize=8, framealpha=0.8, title="init seed (eval; diamond: final)", title_fontsize=8)
+            ax.legend(loc="upper left", fontsize=8, framealpha=0.8, title="init seed (eval; diamond: final)", title_fontsize=8)  # curves rise to the right: upper left is clear
     for ax in list(axes.flat)[len(names):]:
         ax.axis("off")
     fig.suptitle("Learning: normalised return against samples")
