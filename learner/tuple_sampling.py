@@ -28,7 +28,7 @@ Where this differs from the paper, and why:
   keeps counting through the horizon, so "frame" is time along the reference track, as the
   paper's video time is.
 
-Measured (`services/bench/scripts/adaptive_sampling.py`, looped walk, 20 s horizon, 500 k samples): while episodes
+Measured (`bench/scripts/adaptive_sampling.py`, looped walk, 20 s horizon, 500 k samples): while episodes
 are about as long as K (early training: ~53 steps), the short ones kept whole outweigh the cut
 long ones, so the used tuples lean slightly *more* to the early frames than the collected ones;
 learning per collected sample matched training on every tuple.

@@ -7,17 +7,15 @@ import cv2
 import numpy as np
 import tomllib
 
+from actors.motion.formats.trc import read_trc
+
 CLIP_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "video" / "pose2sim_balancing"
 TRC = CLIP_DIR / "S00_P00_T01_BalancingTrial_0-100.trc"
 
 
 def markers(path: Path = TRC) -> tuple[list[str], np.ndarray]:
     """Marker names and (T, M, 3) positions in the calibration's world frame (metres, z up)."""
-    lines = path.read_text().splitlines()
-    names = [n for n in lines[3].split("\t")[2:] if n]
-    data = np.array([[float(v) for v in line.split("\t")[2:2 + 3 * len(names)]] for line in lines[5:] if line.strip()])
-    trc = data.reshape(len(data), len(names), 3)
-    return names, trc[..., [2, 0, 1]]  # the .trc axes are permuted against the calibration's world
+    return read_trc(path)
 
 
 def project(points: np.ndarray, camera: str = "cam_01") -> np.ndarray:

@@ -116,3 +116,20 @@ def test_the_room_graph_sees_a_circle_between_folders():
 
 def test_the_cycle_finder_finds_a_circle():
     assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def _imported_tops(path: Path) -> set[str]:
+    tops = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            tops.add(node.module.split(".")[0])
+        elif isinstance(node, ast.Import):
+            tops.update(a.name.split(".")[0] for a in node.names)
+    return tops
+
+
+def test_the_package_imports_nothing_that_is_not_installed():
+    """bench/ (study scripts) and tests/ are not installed, so no installed module may import them."""
+    offenders = sorted(str(p.relative_to(ROOT)) for top in LAYERS for p in (ROOT / top).rglob("*.py")
+                       if _imported_tops(p) & {"bench", "tests"})
+    assert not offenders, offenders

@@ -3,7 +3,7 @@
 Once nothing touches the ground, physics keeps the body's angular momentum about its centre of
 mass constant and drops the centre of mass at g. A reference's kinematic velocities need not: on
 our humanoid the backflip's flight (phases .38-.67) carries 25 -> 66 -> 24 kg m^2/s
-(`services/bench/scripts/flight_momentum.py`), so an episode started mid-flight from the reference's
+(`bench/scripts/flight_momentum.py`), so an episode started mid-flight from the reference's
 velocities spins 2.6x faster than any take-off can make it, and no action changes that in the air.
 Five of the backflip's six `sfv eval` falls at 14 M samples started there (phases .34-.50). That
 policy trained 3 M samples more with ballistic starts: `sfv eval` (itself ballistic) .694 with 6 / 32
@@ -20,7 +20,7 @@ push-off, `flight_stretches`) gets, for start states only:
   the flight's poses, turns the body as far as the reference's does (a least-squares fit of the
   angular velocities). Measured on the backflip: L* = 41.1 kg m^2/s, and the policy trained to 14 M
   samples from the reference's velocities carries 39.9-41.6 through its own flight from the clip's
-  first frame (`services/bench/scripts/flight_momentum.py --run`): the momentum a take-off gives;
+  first frame (`bench/scripts/flight_momentum.py --run`): the momentum a take-off gives;
 - the centre of mass's velocity on the parabola under g that fits the reference's centre of mass
   positions best.
 The take-off rows just before a flight join it (`takeoff_rows`): up to TAKEOFF_MAX_ROWS rows whose

@@ -14,7 +14,7 @@ for good, and a median keeps such an edge where an average smears it into the ro
 side). The same trained policies from the same poses, `sfv eval`'s 32 strict episodes with the clip's
 own velocities / a Gaussian of one row (33 ms; PHC and ProtoMotions filter their
 references' velocities with a Gaussian of two frames) / a median of three rows
-(`services/bench/scripts/start_velocity_probe.py`, bench/results/acrobatics/start_velocity_filter.json):
+(`bench/scripts/start_velocity_probe.py`, bench/results/acrobatics/start_velocity_filter.json):
 roll .648 / .768 / .733; cartwheel .855 with 3 falls / .882 with 2 / .909 with 1; jump .935, no
 fall / .883 with 2 / .909 with 1; spinkick .849, no fall / .825 with 1 / .849, no fall; the backflip
 .805 with 2 falls in all three; the nine other clips within .005 of their own (dance_b's 7 falls

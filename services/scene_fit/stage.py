@@ -1,7 +1,7 @@
 """A scene fit from a root-free motion and a scene file: windows -> SLSQP fit -> final rollout.
 
 The pipeline (`sfv pipeline VIDEO --camera moving --scene boxes.yaml`) runs it after the
-reconstruction; `services/bench/scripts/scene_fit.py` runs it on a synthetic box clip. `check_inputs` reads and
+reconstruction; `bench/scripts/scene_fit.py` runs it on a synthetic box clip. `check_inputs` reads and
 checks the motion and the scene before anything is trained, so that bad input is one line.
 """
 from __future__ import annotations

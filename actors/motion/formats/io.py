@@ -13,7 +13,7 @@ Formats
   `root_is_free`), `orientation_hint` / `orientation_hint_confidence` (T,), `camera_*`
   (T,), `video_start_frame`, `person_id`.
   For box scenes (`actors/envs/scene_reward.py`): `box_contacts` (T, 4) int, the box each of the
-  feet and hands touches (-1 none); synthetic clips also carry `scene_truth` (`services/bench/scripts/box_clip.py`).
+  feet and hands touches (-1 none); synthetic clips also carry `scene_truth` (`bench/scripts/box_clip.py`).
 - BVH (`.bvh`, or any file starting with HIERARCHY) from any rig: the rig is detected from
   its joint names and the clip retargeted onto the humanoid (`actors/motion/formats/bvh_import.py`).
 - Names: `deepmimic:<clip>` resolves to `pybullet_data/data/motions/humanoid3d_<clip>.txt`

@@ -1,0 +1,139 @@
+"""Task policies on the motor module against from-scratch joint-space policies (issue 16 item 5).
+
+    python bench/scripts/npmp_tasks.py --module MODULE --runs-dir DIR [--tasks go_to,push_box]
+                               [--actions latent,joint] [--samples 750000] [--workers 2]
+
+For each task x action space: trains a run in DIR/<task>_<action> with the same sample budget
+(resuming a run that stopped early, skipping one that is complete), evaluates it (`sfv task
+eval`: 32 deterministic episodes), renders 2 episodes to DIR/<task>_<action>.mp4, and merges
+the figures into bench/results/npmp_tasks.json (entries of other task x action pairs already
+there are kept, so the pairs can be run one at a time), with the training curves (success rate
+against samples, each run) in bench/results/npmp_tasks.png. "samples_to_success_<p>": the
+first sample count at which the training success rate, averaged over 5 iterations, reached p.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # run from a checkout without installing
+
+RESULTS = Path(__file__).resolve().parents[2] / "bench" / "results"
+THRESHOLDS = (0.25, 0.5)
+WINDOW = 5
+
+
+def samples_to_success(rows: list[dict], threshold: float) -> int | None:
+    rates = [(r["samples"], r.get("success_rate")) for r in rows if r.get("success_rate") is not None]
+    for k in range(len(rates)):
+        window = [rate for _, rate in rates[max(0, k - WINDOW + 1):k + 1]]
+        if len(window) == WINDOW and sum(window) / WINDOW >= threshold:
+            return int(rates[k][0])
+    return None
+
+
+def train(task: str, action: str, args, run_dir: Path) -> float:
+    from actors.envs.tasks.config import TaskEnvConfig
+    from services.tasks.config import TaskConfig, task_ppo
+    from services.tasks.driver import TaskTrainer
+    from services.training.run_dir import checkpoint_files, read_metrics
+
+    rows = read_metrics(run_dir)
+    if rows and rows[-1]["samples"] >= args.samples:
+        return 0.0
+    config = TaskConfig(out=str(run_dir), workers=args.workers, envs_per_worker=args.envs_per_worker, samples=args.samples,
+                        seed=args.seed, runner=args.runner, torch_threads=args.torch_threads,
+                        env=TaskEnvConfig(task=task, action=action, module=args.module if action == "latent" else None),
+                        ppo=task_ppo(action))
+    started = time.perf_counter()
+    with TaskTrainer(config, resume=bool(checkpoint_files(run_dir)), progress=not args.quiet) as trainer:
+        trainer.run()
+    return time.perf_counter() - started
+
+
+def measure(task: str, action: str, args) -> dict:
+    from services.tasks.run_dir import load_task_run
+    from services.tasks.evaluation import evaluate_task
+    from services.tasks.video import render_task
+    from services.training.run_dir import read_metrics
+
+    run_dir = Path(args.runs_dir) / f"{task}_{action}"
+    seconds = train(task, action, args, run_dir)
+    config, weights = load_task_run(run_dir)
+    rows = read_metrics(run_dir)
+    entry = {"run": str(run_dir), "samples": rows[-1]["samples"], "train_seconds_this_call": seconds,
+             "module": config.env.module, **evaluate_task(config.env, weights, args.episodes, seed=1000)}
+    for p in THRESHOLDS:
+        entry[f"samples_to_success_{p}"] = samples_to_success(rows, p)
+    entry["final_training_success_rate"] = rows[-1].get("success_rate")
+    video = Path(args.runs_dir) / f"{task}_{action}.mp4"
+    entry["video"] = render_task(config.env, weights, video, episodes=2, seed=1000, label=f"{task} - {action}")
+    return entry
+
+
+def smoothed(values: list[float], window: int = 10) -> list[float]:
+    """Running mean over the last `window` iterations (a 4096-sample batch holds ~13 ten-second episodes)."""
+    return [sum(values[max(0, k - window + 1):k + 1]) / len(values[max(0, k - window + 1):k + 1]) for k in range(len(values))]
+
+
+def plot(results: dict, out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from services.training.run_dir import read_metrics
+
+    tasks = sorted({key.split("/")[0] for key in results})
+    fig, axes = plt.subplots(2, len(tasks), figsize=(6 * len(tasks), 7), squeeze=False)
+    for column, task in enumerate(tasks):
+        for key, entry in sorted(results.items()):
+            if key.split("/")[0] != task:
+                continue
+            rows = [r for r in read_metrics(Path(entry["run"])) if r.get("success_rate") is not None]
+            samples = [r["samples"] for r in rows]
+            for row, metric in enumerate(("success_rate", "fall_rate")):
+                axes[row][column].plot(samples, smoothed([r[metric] for r in rows]), label=key.split("/")[1])
+        axes[0][column].set(title=f"{task}: training episodes reaching a target", xlabel="samples", ylabel="success rate (10-iteration mean)")
+        axes[1][column].set(title=f"{task}: training episodes ending in a fall", xlabel="samples", ylabel="fall rate (10-iteration mean)")
+        for ax in axes[:, column]:
+            ax.legend()
+    fig.tight_layout()
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    from learner.atomic_io import atomic_write_json
+
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--module", default=None, help="motor module directory (for the latent runs)")
+    p.add_argument("--runs-dir", required=True)
+    p.add_argument("--tasks", default="go_to")
+    p.add_argument("--actions", default="latent,joint")
+    p.add_argument("--samples", type=int, default=750_000)
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--envs-per-worker", type=int, default=16)
+    p.add_argument("--runner", default="ray")
+    p.add_argument("--torch-threads", type=int, default=1)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--episodes", type=int, default=32)
+    p.add_argument("--quiet", action="store_true")
+    p.add_argument("--results", default=str(RESULTS / "npmp_tasks.json"))
+    args = p.parse_args(argv)
+    out = Path(args.results)
+    results = json.loads(out.read_text())["runs"] if out.is_file() else {}
+    for task in args.tasks.split(","):
+        for action in args.actions.split(","):
+            results[f"{task}/{action}"] = measure(task, action, args)
+            atomic_write_json(out, {"bench": "npmp_tasks", "budget_samples": args.samples, "runs": results})
+            print(json.dumps({f"{task}/{action}": results[f"{task}/{action}"]}), flush=True)
+    plot(results, out.with_suffix(".png"))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
