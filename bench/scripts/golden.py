@@ -4,9 +4,11 @@
 ASI through the embedded gRPC server), 2 PPO iterations each, and writes the SHA-256 of the
 rollout arrays of one worker's first `sample` call and of the final policy weights, plus a
 few summary numbers. `--check FILE.json` recomputes them and exits 1 naming what changed.
-A restructuring (issue 12) is bit-identical when the digests match on the same machine;
-`bench/results/golden_digests.json` holds this machine's, recorded before issue 12 and matched
-after it.
+A restructuring is bit-identical when the digests match on the same platform (the `platform`
+entry: CPU, Python and library versions); `bench/results/golden_digests.json` holds the
+reference, and tests/bench/test_golden_digests.py checks it in CI. Rewrite it only on purpose,
+with the reason in the commit message. The digests follow the default (synchronous) training
+path.
 """
 from __future__ import annotations
 
@@ -18,6 +20,10 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # run from a checkout without installing
+
+PLATFORM_KEY = "platform"
 
 
 def _digest(arrays: dict) -> str:
@@ -79,6 +85,24 @@ def compute() -> dict:
     return result
 
 
+def platform() -> dict:
+    """What the bits depend on besides the code: the CPU and the numeric libraries."""
+    import platform as host
+
+    import mujoco
+    import torch
+
+    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                if line.startswith("model name")), host.processor()) if Path("/proc/cpuinfo").is_file() else host.processor()
+    return {"cpu": cpu, "machine": host.machine(), "python": host.python_version(), "numpy": np.__version__,
+            "torch": torch.__version__, "mujoco": mujoco.__version__}
+
+
+def changed_digests(expected: dict, result: dict) -> list[str]:
+    """The recorded entries (the platform aside) that the recomputed result does not match."""
+    return [k for k in expected if k != PLATFORM_KEY and expected[k] != result.get(k)]
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     group = parser.add_mutually_exclusive_group(required=True)
@@ -87,11 +111,12 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     result = compute()
     if args.out:
+        result[PLATFORM_KEY] = platform()
         Path(args.out).write_text(json.dumps(result, indent=1) + "\n")
         print(json.dumps(result, indent=1))
         return 0
     expected = json.loads(Path(args.check).read_text())
-    changed = [k for k in expected if expected[k] != result.get(k)]
+    changed = changed_digests(expected, result)
     for key in changed:
         print(f"{key}: expected {expected[key]}, got {result.get(key)}")
     print("bit-identical" if not changed else f"{len(changed)} digests changed")
