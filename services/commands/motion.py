@@ -1,6 +1,6 @@
 """`sfv motion`: inspect and convert reference motions.
 
-    sfv motion check MOTION [--physics-hz HZ]
+    sfv motion check MOTION [--physics-hz HZ]      (MOTION may be a robot motion: its own robot plays it)
     sfv motion convert IN --out OUT.npz [--rig auto|NAME|MAP.yaml] [--up +y] [--forward +z] [--units cm] [--loop auto]
     sfv motion convert IN --character g1 --out IN_g1.npz [--fps F]
     sfv motion bend MOTION --yaw-rate DEG_PER_S --seconds S --out OUT.npz
@@ -40,7 +40,7 @@ def register(subparsers) -> None:
     actions = parser.add_subparsers(dest="motion_action", required=True)
 
     check = actions.add_parser("check", help="validate a motion and print its summary and playback reward as JSON")
-    check.add_argument("motion", help="deepmimic:<clip> or a path to a .npz / DeepMimic JSON motion")
+    check.add_argument("motion", help="deepmimic:<clip>, a .npz / DeepMimic JSON / BVH motion, or a robot motion file")
     check.add_argument("--physics-hz", type=float, default=None,
                        help="MuJoCo step rate (a whole multiple of the 30 Hz control rate; default: the env's)")
     check.set_defaults(handler=run_check)
@@ -104,21 +104,32 @@ def playback_reward(env) -> float:
     return total / rows
 
 
+def _check_subject(motion_arg: str, config):
+    """The motion to check and the env config for its body: a robot motion file drives its own robot."""
+    import dataclasses
+
+    from actors.motion.formats.io import load_motion
+    from actors.motion.robot_motion import is_robot_motion, load_robot_motion
+
+    if is_robot_motion(motion_arg):
+        robot = load_robot_motion(motion_arg)
+        return robot, dataclasses.replace(config, character=robot.character)
+    return load_motion(motion_arg), config
+
+
 def run_check(args: argparse.Namespace) -> int:
     from actors.envs.imitation_env import ImitationEnv
-    from actors.motion.formats.io import load_motion
 
-    config = _env_config(args.physics_hz)
-    motion = load_motion(args.motion)
+    motion, config = _check_subject(args.motion, _env_config(args.physics_hz))
     env = ImitationEnv(motion, config)
     report = dict(motion.summary())
     report["physics_hz"] = config.physics.physics_hz
     report["control_hz"] = config.control_hz
     report["playback_reward"] = round(playback_reward(env), 6)
-    if motion.loop:  # a loop whose last pose is not its first jumps at every wrap (actors/motion/loop_closure.py)
+    if env.motion.loop:  # a loop whose last pose is not its first jumps at every wrap (actors/motion/loop_closure.py)
         from actors.motion.loop_closure import wrap_mismatch
 
-        report["loop_wrap_mismatch_rad"] = round(float(wrap_mismatch(motion).max()), 4)
+        report["loop_wrap_mismatch_rad"] = round(float(wrap_mismatch(env.motion).max()), 4)
     print(json.dumps(report))
     return 0
 
