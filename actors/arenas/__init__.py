@@ -1,8 +1,9 @@
 """Arenas: what the character stands in (the `Arena` interface, `actors/arenas/base.py`).
 
 The registry names each arena; the env core asks it for the arena of its config
-(`arena_for`) and the task envs for theirs by name (`make_arena`). A new terrain (slopes,
-stairs) is an `Arena` registered here with `register_arena("stairs", Stairs)`.
+(`arena_for`) and the task envs for theirs by name (`make_arena`). A new arena is an `Arena`
+registered here with `register_arena("name", Factory)`; slopes, gaps, steps and rough ground are
+the "terrain" arena's kinds (`actors/arenas/terrain.py`).
 """
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from actors.arenas.boxes import BoxArena, scene_arena
 from actors.arenas.flat import FlatFloor
 from actors.arenas.push_box import PushBoxArena
 from actors.arenas.scene import load_scene
+from actors.arenas.terrain import TerrainArena, terrain_arena
 
 ARENAS: dict[str, Callable[..., Arena]] = {}
 
@@ -40,13 +42,20 @@ def _boxes(scene_path: str, motion, check_start_pose: bool = True) -> BoxArena:
 register_arena("flat", FlatFloor)
 register_arena("boxes", _boxes)
 register_arena("push_box", PushBoxArena)
+register_arena("terrain", terrain_arena)
 
 
-def arena_for(scene_path: str | None, motion, check_start_pose: bool = True) -> Arena:
-    """The imitation env's arena: the flat floor without a scene file, else its boxes."""
+def arena_for(scene_path: str | None, motion, check_start_pose: bool = True, terrain: str | None = None,
+              horizon_s: float = 20.0) -> Arena:
+    """The imitation env's arena: the flat floor, a scene file's boxes, or a `terrain` kind's
+    height field under the clip's path over `horizon_s`."""
+    if terrain is not None:
+        if scene_path is not None:
+            raise ValueError("--terrain and --scene do not go together (boxes stand on the flat floor)")
+        return make_arena("terrain", kind=terrain, motion=motion, horizon_s=horizon_s)
     if scene_path is None:
         return make_arena("flat")
     return make_arena("boxes", scene_path=scene_path, motion=motion, check_start_pose=check_start_pose)
 
 
-__all__ = ["ARENAS", "Arena", "BoxArena", "FlatFloor", "PushBoxArena", "arena_for", "make_arena", "register_arena"]
+__all__ = ["ARENAS", "Arena", "BoxArena", "FlatFloor", "PushBoxArena", "TerrainArena", "arena_for", "make_arena", "register_arena"]

@@ -8,7 +8,8 @@ character (`props_xml`), so the character keeps the first coordinates of qpos / 
 
 At run time the env core asks it for its obstacles (geoms whose contact ends a movingcam
 episode) and, when it has a `scene` (boxes that move per episode), to `set_scene(model, e)`.
-A new terrain is a class with these members, registered in `actors/arenas/__init__.py`.
+A new terrain is a class with these members, registered in `actors/arenas/__init__.py`;
+ground that is not level is a height field (`terrain.py`: slopes, gaps, steps, rough, mixed).
 """
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ from typing import Any, Protocol, runtime_checkable
 class Arena(Protocol):
     geom_name: str  # the ground geom (the fall rule and the feet's contacts look it up)
     scene: Any  # a `Scene` whose vector e moves props per episode (`set_scene`), or None
+    terrain: Any  # a `TerrainArena` whose height field is drawn per episode (`actors/arenas/terrain.py`), or None
 
     def assets_xml(self) -> str: ...
 

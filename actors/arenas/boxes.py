@@ -28,6 +28,7 @@ class BoxArena:
     scene: Scene
     frame: SceneFrame = SceneFrame()
     floor: FlatFloor = FlatFloor()
+    terrain = None  # level ground under the boxes
 
     @property
     def geom_name(self) -> str:  # the floor's (Humanoid reads it)

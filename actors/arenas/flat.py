@@ -19,6 +19,7 @@ class FlatFloor:
 
     geom_name: str = "floor"
     scene = None  # nothing in it moves per episode (the Arena interface, `actors/arenas/base.py`)
+    terrain = None  # level ground (`actors/arenas/terrain.py` is the one that is not)
 
     def obstacle_geom_ids(self, model) -> tuple[int, ...]:
         """No obstacles: the ground is not one."""

@@ -27,6 +27,7 @@ class PushBoxArena:
     floor_friction: float = 0.4
     floor: FlatFloor = FlatFloor()
     scene = None  # the box is a free body, not a scene vector
+    terrain = None  # level ground
 
     def obstacle_geom_ids(self, model) -> tuple[int, ...]:
         return ()

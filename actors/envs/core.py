@@ -54,7 +54,8 @@ class CoreParts:
 
 
 class ImitationCore:
-    def __init__(self, envs, humanoid, track, config, feature_dim: int, obs_dim: int, scene_dim: int, scene_reward, scene_limbs):
+    def __init__(self, envs, humanoid, track, config, feature_dim: int, obs_dim: int, scene_dim: int, scene_reward, scene_limbs,
+                 ground=None, heightmap_dim: int = 0):
         num_envs = len(envs)
         first = envs[0]
         self.envs = envs
@@ -87,8 +88,12 @@ class ImitationCore:
         self.obs64 = np.zeros((num_envs, obs_dim))
         # The observation: features (actors/character/features.py), the reference's poses ahead, the scene vector.
         self.obs_features = self.obs64 if obs_dim == feature_dim else self.obs64[:, :feature_dim]  # a view kept: FeatureExtractor caches by identity
-        self.scene_obs_start = obs_dim - scene_dim
+        # then a terrain's heightmap (`actors/envs/ground.py`; `ground` None: level ground, nothing of it runs).
+        self.ground = ground
+        self.scene_obs_start = obs_dim - heightmap_dim - scene_dim
         self.obs_pose = self.obs64[:, feature_dim:self.scene_obs_start]
+        self.obs_scene = self.obs64[:, self.scene_obs_start:obs_dim - heightmap_dim]
+        self.obs_heightmap = self.obs64[:, obs_dim - heightmap_dim:] if heightmap_dim else None
 
     def configure(self, config) -> None:
         """The per-step settings of `config` (early termination, zero reward on a fall)."""
@@ -114,6 +119,9 @@ class ImitationCore:
         yaw = features.heading()
         reference = self.track.features.take(rows, self._reference)
         self.root_sync.apply(rows, features.pos[:, 0, :2], reference)
+        roots = self.reference_obs.gather(rows, self.root_sync.offset)
+        if self.ground is not None:
+            self.ground.follow(reference, roots)  # the clip, recorded on the flat, over this ground
         rewards = self.mode.rewards(rows, features, features.reward_features(yaw), reference, self.terms, self.early_termination)
         self.fell |= self.mode.terminated
         if self.scene_reward is not None:
@@ -121,10 +129,12 @@ class ImitationCore:
         rewards[self.diverged] = 0.0
         if self.zero_reward_on_fall:
             rewards[self.fell] = 0.0
-        features.observations(self.track.phase[rows], self.obs_features, yaw, self.reference_obs.gather(rows, self.root_sync.offset))
+        features.observations(self.track.phase[rows], self.obs_features, yaw, roots)
         self.mode.observe(rows, self.obs_features)
         self.reference_pose_obs.write(rows, self.obs_pose)
-        self.obs64[:, self.scene_obs_start:] = scene_obs
+        self.obs_scene[:] = scene_obs
+        if self.obs_heightmap is not None:
+            self.ground.heightmap(features.pos[:, 0], yaw, self.obs_heightmap)
         return rewards
 
     def scene_rewards(self, rows: np.ndarray, e: np.ndarray) -> np.ndarray:

@@ -31,8 +31,10 @@ import mujoco
 import numpy as np
 
 from actors.arenas import arena_for
+from actors.arenas.terrain_generators import check_terrain
 from actors.envs.core import CoreParts, ImitationCore
 from actors.envs.falls import FallDetector
+from actors.envs.ground import HEIGHTMAP_DIM, Ground
 from actors.character.features import observation_dim, pose_obs_width, update_kinematics
 from actors.character.humanoid import PhysicsConfig, control_substeps
 from actors.character.characters import CHARACTER_NAMES, character_named
@@ -78,6 +80,11 @@ class EnvConfig:
     scene: str | None = field(default=None, metadata={"help": "scene file (YAML, boxes along the clip's initial heading: actors/arenas/scene.py) put on the floor; the scene vector joins the observation and 002's scene reward the reward; none: the flat floor"})
     scene_check_start_pose: bool = field(default=True, metadata={"help": "refuse a scene file whose box can cover the clip's first frame (off: a scene-fit window that starts at a box)"})
     scene_randomise: bool = field(default=True, metadata={"help": "draw each episode's box positions and heights uniformly in the scene file's domains (002 section 5.3: the value function must generalise over the scene); off: the file's values"})
+    terrain: str | None = field(default=None, metadata={"help": "ground that is not level, a height field drawn afresh every episode along the clip's path (actors/arenas/terrain.py, docs/terrain.md): slopes, gaps, steps, rough or mixed (slopes, gaps and steps in 5-8 m sections); the reference's root follows the ground and the policy sees a heightmap; none: the flat floor"})
+    terrain_difficulty: float = field(default=1.0, metadata={"help": "how hard the terrain is, in [0, 1]: 0 flat; 1 grades to 15 %, gaps to 40 cm, steps to 15 cm, bumps to 6 cm; with terrain_curriculum the most any env reaches"})
+    terrain_curriculum: bool = field(default=True, metadata={"help": "each training env starts on flat ground and moves a level (a tenth of terrain_difficulty) up after an episode of at least 2 s without a fall, down after a fall (the legged-locomotion terrain curriculum); off: every episode at terrain_difficulty"})
+    terrain_seed: int = field(default=0, metadata={"help": "seed of the terrains drawn (episode k of sfv eval draws from [seed, k]); eval on seeds training never used"})
+    heightmap: bool = field(default=True, metadata={"help": "with a terrain, observe the ground's heights on a 16 x 5 grid around the root in its heading frame (actors/envs/ground.py; 80 numbers at the observation's end); off: the policy walks blind"})
 
     def __post_init__(self):
         if self.ground_contact_links is not None:
@@ -102,6 +109,9 @@ class EnvConfig:
             raise ValueError(f"flight_starts must be one of {', '.join(FLIGHT_STARTS)}, got {self.flight_starts!r}")
         if self.start_velocity_median_rows < 1 or self.start_velocity_median_rows % 2 == 0:
             raise ValueError(f"start_velocity_median_rows must be an odd number of rows >= 1, got {self.start_velocity_median_rows}")
+        check_terrain(self.terrain, self.terrain_difficulty)
+        if self.terrain is not None and self.scene is not None:
+            raise ValueError("--terrain and --scene do not go together (boxes stand on the flat floor)")
         if not self.loop_closure_s >= 0:
             raise ValueError(f"loop_closure_s must be >= 0, got {self.loop_closure_s}")
         if not self.target_lead_s >= 0:
@@ -128,7 +138,8 @@ class EnvConfig:
 
 def build_body(config: EnvConfig, motion: ReferenceMotion) -> CompiledCharacter:
     """The config's character compiled in the config's arena (a scene's boxes placed along `motion`)."""
-    return character_named(config.character).build(config.physics, arena_for(config.scene, motion, config.scene_check_start_pose))
+    arena = arena_for(config.scene, motion, config.scene_check_start_pose, config.terrain, config.horizon_s)
+    return character_named(config.character).build(config.physics, arena)
 
 
 def env_reference(motion, config: EnvConfig) -> ReferenceMotion:
@@ -150,8 +161,10 @@ class ImitationEnv(CoreParts, gym.Env):
             raise ValueError(f"internal: a built {self.humanoid.character.name} for an env of the {config.character}")
         self.arena = self.humanoid.arena
         self.scene = self.arena.scene  # boxes that move per episode (None: nothing moves)
-        # With boxes each env moves its own (the model is what set_scene edits).
-        self.model = self.humanoid.model if self.scene is None else copy.copy(self.humanoid.model)
+        self.terrain = self.arena.terrain  # a height field drawn per episode (None: level ground)
+        # With boxes or terrain each env moves its own (the model is what set_scene and the ground edit).
+        own_model = self.scene is not None or self.terrain is not None
+        self.model = copy.copy(self.humanoid.model) if own_model else self.humanoid.model
         self.data = mujoco.MjData(self.model)
         self.substeps = config.substeps
         self.track = track or ReferenceTrack(motion, self.humanoid, 1.0 / config.control_hz, config.horizon_s, config.flight_starts,
@@ -161,7 +174,8 @@ class ImitationEnv(CoreParts, gym.Env):
         scene_dim = 0 if self.scene is None else self.scene.vector_dim
         # The observation: features (actors/character/features.py), the reference's poses ahead, the scene vector.
         self.scene_obs_start = feature_dim + len(config.reference_pose_obs_steps) * pose_obs_width(self.humanoid.character)
-        self.obs_dim = self.scene_obs_start + scene_dim
+        self.heightmap_dim = HEIGHTMAP_DIM if self.terrain is not None and config.heightmap else 0
+        self.obs_dim = self.scene_obs_start + scene_dim + self.heightmap_dim
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self.obs_dim,), np.float32)
         self.state_dim = self.layout.state_dim
         # The scene vector e of this episode and e over its domain (the observation's tail).
@@ -175,7 +189,11 @@ class ImitationEnv(CoreParts, gym.Env):
         self._step = 0
         self._max_steps = 1
         # The env core over a batch of one: this env's physics, features, mode and observation.
-        self.core = ImitationCore([self], self.humanoid, self.track, config, feature_dim, self.obs_dim, scene_dim, self.scene_reward, self.scene_limbs)
+        self.ground = None if self.terrain is None else Ground.of(self.terrain, 1)  # this env's, a batch of one
+        self.terrain_difficulty = config.terrain_difficulty  # a curriculum's current level (the vector env's)
+        self._terrain_rng = np.random.default_rng(config.terrain_seed)
+        self.core = ImitationCore([self], self.humanoid, self.track, config, feature_dim, self.obs_dim, scene_dim, self.scene_reward, self.scene_limbs,
+                                  self.ground, self.heightmap_dim)
         core = self.core
         self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
         # The boxes' geom ids (empty on the flat floor), for an obstacle-collision termination.
@@ -193,6 +211,12 @@ class ImitationEnv(CoreParts, gym.Env):
         self._terms = core.terms
         self.reward_terms = core.terms[0]  # the same numbers, one env's
         self.horizon_cap_steps: int | None = None  # an episode-length curriculum's current limit
+        if self.ground is not None:
+            self.ground.regenerate(0, self.model, 0.0, self._terrain_rng)  # flat until the first reset
+
+    def use_ground(self, ground: Ground) -> None:
+        """Draw and observe this env's terrain in `ground` (a batch of one over a vector env's rows)."""
+        self.ground = self.core.ground = ground
 
     @property
     def config(self) -> EnvConfig:
@@ -232,6 +256,10 @@ class ImitationEnv(CoreParts, gym.Env):
             self._max_steps = max(1, min(self._max_steps, self.horizon_cap_steps))
         if self.scene is not None:
             self._place_scene(options.get("scene"))
+        if self.ground is not None:
+            if seed is not None:  # episode k of an evaluation, or a worker's env: its own terrain stream
+                self._terrain_rng = np.random.default_rng([self.config.terrain_seed, seed])
+            self.ground.regenerate(0, self.model, self.terrain_difficulty, self._terrain_rng)
         mujoco.mj_resetData(self.model, self.data)
         if init == "state":
             state = np.asarray(options["state"], dtype=np.float64)
@@ -245,6 +273,8 @@ class ImitationEnv(CoreParts, gym.Env):
         else:
             self.data.qpos[:] = self.track.qpos[start]
             self.data.qvel[:] = self.track.qvel[start]
+        if self.ground is not None:
+            self.ground.lift(0, self.data.qpos)  # the clip was recorded on the flat
         # Hold the current pose as the first PD target so the first substeps do not jerk.
         update_kinematics(self.model, self.data)
         self.root_sync.reset(0, self.data.qpos[:2], start)
@@ -369,5 +399,7 @@ class ImitationEnv(CoreParts, gym.Env):
         self.features.observation(self.data, self.track.phase[self.row], self._obs_features, reference)
         self.mode.observe(self._row_buf, self._obs_features)
         self.reference_pose_obs.write(self._row_buf, self._obs_pose)
-        self._obs[0, self.scene_obs_start:] = self.scene_obs
+        self.core.obs_scene[0] = self.scene_obs
+        if self.heightmap_dim:
+            self.ground.heightmap(self.features.pos[:, 0], self.features.heading(), self.core.obs_heightmap)
         return self._obs[0]

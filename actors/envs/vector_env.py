@@ -15,7 +15,9 @@ from actors.character.characters import character_named
 from actors.character.humanoid3d import HUMANOID3D
 from actors.envs.core import CoreParts, ImitationCore
 from actors.envs.imitation_env import EnvConfig, ImitationEnv, build_body, env_reference
+from actors.envs.ground import Ground
 from actors.envs.initial_states import BufferedStarts
+from actors.envs.terrain_curriculum import TerrainCurriculum
 from actors.motion.reference_motion import ReferenceMotion
 from actors.motion.reference_track import ReferenceTrack
 
@@ -41,11 +43,12 @@ class EpisodeLog:
     fall_causes: list = field(default_factory=list)  # bitmask: bit i link i on the ground, `other_end` another end (0: no fall)
     components: list = field(default_factory=list)
     initial_states: list = field(default_factory=list)
+    terrain_difficulty: list | None = None  # each episode's, on terrain (None: level ground, not logged)
     state_dim: int = 0
 
     def drain(self) -> dict[str, np.ndarray]:
         out = {k: np.asarray(v, dtype=np.int64 if k in ("components", "fall_causes") else np.float32)
-               for k, v in self.__dict__.items() if k not in ("initial_states", "state_dim")}
+               for k, v in self.__dict__.items() if k not in ("initial_states", "state_dim") and v is not None}
         out["fell"] = out["fell"].astype(bool)
         out["initial_states"] = np.array(self.initial_states, dtype=np.float32).reshape(len(self.initial_states), self.state_dim)
         for v in self.__dict__.values():
@@ -91,6 +94,7 @@ class VectorImitationEnv(CoreParts):
         self.start_phase_spread = float(start_phase_spread)
         self._phase_rng = np.random.default_rng([seed, 4])
         self._loop = motion.loop
+        self.curriculum: TerrainCurriculum | None = None
         # The env core over the batch: per-env MuJoCo, then one pass of feature maths over all envs.
         first = self.envs[0]
         self.track = track
@@ -100,13 +104,26 @@ class VectorImitationEnv(CoreParts):
         self.scene_obs = np.stack([env.scene_obs for env in self.envs])
         for i, env in enumerate(self.envs):
             env.scene_vector, env.scene_obs = self.scene_vectors[i], self.scene_obs[i]
+        ground = None if first.terrain is None else self._use_terrain(first.terrain, config)
         self.core = core = ImitationCore(self.envs, humanoid, track, config, first.obs_features_dim, obs_dim, first.scene_vector.size,
-                                         first.scene_reward, first.scene_limbs)
+                                         first.scene_reward, first.scene_limbs, ground, first.heightmap_dim)
         core.mode.set_obstacles(first.obstacle_geom_ids)
         self._rows = core.rows
         self._fell = core.fell
         self._diverged = core.diverged
         self._obs64 = core.obs64
+
+    def _use_terrain(self, terrain, config: EnvConfig) -> Ground:
+        """One `Ground` over the M envs, each env drawing into its rows; the curriculum's levels."""
+        ground = Ground.of(terrain, self.num_envs)
+        for i, env in enumerate(self.envs):
+            env.use_ground(ground.rows(i))
+        self.episodes.terrain_difficulty = []
+        if config.terrain_curriculum:
+            self.curriculum = TerrainCurriculum(self.num_envs, config.terrain_difficulty, config.control_hz)
+            for env in self.envs:
+                env.terrain_difficulty = 0.0
+        return ground
 
     @property
     def max_reward(self) -> float:
@@ -192,3 +209,7 @@ class VectorImitationEnv(CoreParts):
         log.fall_causes.append((env.fall_detector.touching(env.data) or other_end(env.humanoid.character)) if fell else 0)
         log.components.append(self._component[i])
         log.initial_states.append(self._init_state[i].copy())
+        if log.terrain_difficulty is not None:
+            log.terrain_difficulty.append(env.terrain_difficulty)
+            if self.curriculum is not None:
+                env.terrain_difficulty = self.curriculum.update(i, fell, int(self._len[i]))

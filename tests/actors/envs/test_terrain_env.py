@@ -1,0 +1,123 @@
+"""The env on terrain: the heightmap reads a known step in the heading frame, starts stand on
+the ground under them, the reference follows it, and a vector env's curriculum and log."""
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from actors.arenas.scene import SceneFrame
+from actors.arenas.terrain import TerrainArena
+from actors.arenas.terrain_generators import TerrainGrid
+from actors.envs.ground import HEIGHTMAP_ALONG, HEIGHTMAP_ACROSS, HEIGHTMAP_DIM, Ground
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
+from actors.envs.initial_states import BufferedStarts, ReferenceStarts
+from actors.envs.terrain_curriculum import LEVELS, TerrainCurriculum
+from actors.envs.vector_env import VectorImitationEnv
+from actors.motion.formats.io import load_motion
+
+STEP_X, STEP_H = 1.0, 0.15
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return load_motion("deepmimic:walk")
+
+
+def _step_ground(batch: int) -> Ground:
+    """A 15 cm step up at world x = 1 m, everywhere across."""
+    arena = TerrainArena("steps", SceneFrame(), TerrainGrid(-3.0, -2.0, 201, 81))
+    ground = Ground.of(arena, batch)
+    ground.heights[:, :, arena.grid.xs >= STEP_X] = STEP_H
+    return ground
+
+
+def _heading(yaws):
+    m = np.zeros((len(yaws), 3, 3))
+    c, s = np.cos(yaws), np.sin(yaws)
+    m[:, 0, 0], m[:, 0, 1], m[:, 1, 0], m[:, 1, 1], m[:, 2, 2] = c, -s, s, c, 1.0
+    return m
+
+
+def test_the_heightmap_sees_a_step_ahead_facing_it_and_behind_facing_away():
+    ground = _step_ground(2)
+    roots = np.array([[0.5, 0.0, 0.9], [0.8, 0.3, 0.8]])
+    out = np.zeros((2, HEIGHTMAP_DIM))
+    ground.heightmap(roots, _heading(np.array([0.0, np.pi])), out)
+    along = np.repeat(HEIGHTMAP_ALONG, len(HEIGHTMAP_ACROSS))
+    cell = 0.05
+    facing, away = out[0] + 0.9, out[1] + 0.8  # ground heights
+    for h, x in ((facing, 0.5 + along), (away, 0.8 - along)):  # world x of each point
+        clear = np.abs(x - STEP_X) > cell  # not on the riser's cell
+        assert np.allclose(h[clear], np.where(x[clear] >= STEP_X, STEP_H, 0.0), atol=1e-6)
+    assert facing[along > 0.6].min() == pytest.approx(STEP_H, abs=1e-6) and facing[along < 0.4].max() == 0.0
+    assert away[along < -0.25].min() == pytest.approx(STEP_H, abs=1e-6) and away[along > 0].max() == 0.0
+
+
+def test_the_reference_follows_the_support_under_its_root():
+    ground = _step_ground(1)
+    ground.support[0] = np.where(ground.arena.grid.xs >= STEP_X, STEP_H, 0.0)
+
+    class Ref:
+        root_pos = np.array([[0.2, 0.0, 0.9]])
+        com = np.array([[0.2, 0.0, 0.8]])
+        end_effectors = np.zeros((1, 4, 3))
+
+    before, beyond = Ref(), Ref()
+    beyond.root_pos = np.array([[1.6, 0.0, 0.9]])
+    roots = (np.zeros((1, 2, 3)), None)
+    ground.follow(before, None)
+    ground.follow(beyond, roots)
+    assert before.root_pos[0, 2] == pytest.approx(0.9) and beyond.root_pos[0, 2] == pytest.approx(0.9 + STEP_H)
+    assert beyond.com[0, 2] == pytest.approx(0.8 + STEP_H) and np.allclose(roots[0][..., 2], STEP_H)
+
+
+def _lowest_foot_clearance(env):
+    """Height of the lowest point of the walker's geoms over the ground under it (mj_ray down)."""
+    model, data = env.model, env.data
+    floor = env.humanoid.floor_geom_id
+    low = min(range(model.ngeom), key=lambda g: data.geom_xpos[g, 2] if g != floor else np.inf)
+    p = data.geom_xpos[low].copy()
+    geom = np.zeros(1, np.int32)
+    below = mujoco.mj_ray(model, data, p + [0, 0, 3.0], np.array([0.0, 0.0, -1.0]), None, 1, -1, geom)
+    return 3.0 - below
+
+
+def test_starts_stand_on_the_slope_under_them(walk, monkeypatch):
+    monkeypatch.setattr("actors.arenas.terrain_generators.FLAT_PAD_M", -3.0)  # slopes under the first cycle's starts too
+    flat = ImitationEnv(walk, EnvConfig())
+    hills = ImitationEnv(walk, EnvConfig(terrain="slopes", terrain_difficulty=1.0))
+    lifted = []
+    for k in range(12):
+        options = {"init": "rsi", "phase": k / 12}
+        flat.reset(seed=k, options=options)
+        hills.reset(seed=k, options=options)
+        lifted.append(hills.data.qpos[2] - flat.data.qpos[2])
+        # the same pose, lowest geom as far over the slope as over the floor (a foot on a 15 % grade: a few cm)
+        assert abs(_lowest_foot_clearance(hills) - _lowest_foot_clearance(flat)) < 0.06
+    assert max(lifted) > 0.2  # the starts were on hills, not all on the flat first metre
+
+
+def test_a_terrain_env_observes_the_heightmap_last_and_logs_each_episodes_difficulty(walk):
+    config = EnvConfig(terrain="mixed", terrain_difficulty=1.0, horizon_s=1.0)
+    starts = BufferedStarts(ReferenceStarts("rsi", np.random.default_rng(0)), batch=4)
+    env = VectorImitationEnv(walk, config, 3, starts, seed=0)
+    obs = env.reset()
+    assert obs.shape[1] == ImitationEnv(walk, EnvConfig()).obs_dim + HEIGHTMAP_DIM
+    for _ in range(40):
+        obs, *_ = env.step(np.zeros((3, env.action_dim), np.float32))
+    # standing on its start: the ground near the root is about a pelvis height below it
+    assert np.all(obs[:, -HEIGHTMAP_DIM:].max(axis=1) < -0.5)
+    log = env.episodes.drain()
+    assert len(log["terrain_difficulty"]) == len(log["fell"]) >= 3
+    assert np.all(log["terrain_difficulty"][:3] == 0.0)  # the curriculum starts flat
+
+
+def test_the_curriculum_climbs_after_long_episodes_and_steps_down_after_falls():
+    c = TerrainCurriculum(2, top=0.8, control_hz=30.0)
+    for _ in range(LEVELS + 3):
+        c.update(0, fell=False, steps=60)
+    assert c.difficulty(0) == pytest.approx(0.8)
+    assert c.update(0, fell=True, steps=200) == pytest.approx(0.8 * (LEVELS - 1) / LEVELS)
+    assert c.update(1, fell=False, steps=59) == 0.0  # too short to say
+    assert c.update(1, fell=True, steps=10) == 0.0
