@@ -65,32 +65,16 @@ from pathlib import Path
 import numpy as np
 
 from actors.envs.falls import FallDetector
-from actors.character.features import RewardFeatures
 from actors.envs.imitation_env import ImitationEnv
 from learner.errors import SfvError
 from services.training.config import TrainConfig
+from services.training.strict_episode import EvaluationTally, StrictEpisodePlayer
+from services.training.tracking_error import tracking_errors  # noqa: F401  (this module's metric, used by its callers)
 
 DEFAULT_EPISODES = 32  # sfv eval
-PUSH_RECOVERY_S = 1.0  # no push starts later than this before an episode's end
-TRAVEL_M = 0.05  # a looped clip whose root moves less than this per cycle has no distance_ratio
 
 
 # ------------------------------------------------------------------------------ metrics
-def tracking_errors(sim: RewardFeatures, ref: RewardFeatures) -> tuple[np.ndarray, np.ndarray]:
-    """Per row: (mean joint rotation error over the character's joints in rad, mean
-    end-effector distance in m; humanoid3d: 12 joints, 4 end effectors) between two equally
-    long feature batches. The root's orientation is not a joint.
-
-    Ball joints: the angle of q*^-1 q, 2 acos|<q, q*>|; hinges: |angle gap| wrapped to [0, pi].
-    End effectors: Euclidean distance of the heading-frame positions."""
-    dot = np.abs(np.vecdot(sim.quats[:, 1:], ref.quats[:, 1:]))  # (B, balls): the ball joints, root excluded
-    ball = 2.0 * np.arccos(np.minimum(dot, 1.0))
-    gap = np.abs(np.remainder(sim.hinges - ref.hinges + np.pi, 2.0 * np.pi) - np.pi)  # (B, hinges)
-    rotation = (ball.sum(axis=1) + gap.sum(axis=1)) / (ball.shape[1] + gap.shape[1])
-    end_effector = np.linalg.norm(sim.end_effectors - ref.end_effectors, axis=-1).mean(axis=1)
-    return rotation, end_effector
-
-
 def start_phases(episodes: int) -> np.ndarray:
     """Episode k of `episodes` starts at phase k / episodes (evenly spaced over the clip)."""
     return np.arange(episodes) / episodes
@@ -112,6 +96,24 @@ def strict_fall_detector(env: ImitationEnv) -> FallDetector:
     return FallDetector.for_clip(env.humanoid, env.motion.name, env.config.ground_contact_links, strict=True)
 
 
+def _push_config(pushes: int, push_impulse: float | None, push_duration_s: float | None):
+    """The pushes' PushConfig (None without pushes); SfvError in one line for a bad value."""
+    if pushes < 0:
+        raise SfvError(f"evaluate: pushes must be >= 0, got {pushes}")
+    if not pushes:
+        return None
+    from actors.envs.pushes import PushConfig
+
+    defaults = PushConfig()
+    config = PushConfig(count=pushes, impulse=defaults.impulse if push_impulse is None else float(push_impulse),
+                        duration_s=defaults.duration_s if push_duration_s is None else float(push_duration_s))
+    if not (math.isfinite(config.impulse) and config.impulse >= 0):
+        raise SfvError(f"evaluate: push impulse must be a finite number >= 0, got {config.impulse}")
+    if not (math.isfinite(config.duration_s) and config.duration_s > 0):
+        raise SfvError(f"evaluate: push duration must be positive, got {config.duration_s}")
+    return config
+
+
 def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pushes: int = 0,
                     push_impulse: float | None = None, push_duration_s: float | None = None,
                     init: str | None = None) -> dict:
@@ -126,128 +128,19 @@ def evaluate_policy(policy, env: ImitationEnv, episodes: int, seed: int = 0, pus
     40, over `push_duration_s`, default 0.1 s)."""
     if episodes <= 0:
         raise SfvError(f"evaluate: episodes must be positive, got {episodes}")
-    if pushes < 0:
-        raise SfvError(f"evaluate: pushes must be >= 0, got {pushes}")
-    schedule_config = None
-    if pushes:
-        from actors.envs.pushes import PushConfig, PushSchedule, apply_push
-
-        defaults = PushConfig()
-        schedule_config = PushConfig(count=pushes, impulse=defaults.impulse if push_impulse is None else float(push_impulse),
-                                     duration_s=defaults.duration_s if push_duration_s is None else float(push_duration_s))
-        if not (math.isfinite(schedule_config.impulse) and schedule_config.impulse >= 0):
-            raise SfvError(f"evaluate: push impulse must be a finite number >= 0, got {schedule_config.impulse}")
-        if not (math.isfinite(schedule_config.duration_s) and schedule_config.duration_s > 0):
-            raise SfvError(f"evaluate: push duration must be positive, got {schedule_config.duration_s}")
-    hz = env.config.control_hz
-    recovery_steps = int(round(PUSH_RECOVERY_S * hz))
-    detector = strict_fall_detector(env)
-    data, track = env.data, env.track
-    root_body = int(env.humanoid.body_ids[0])
-    zero_on_fall = env.config.zero_reward_on_fall
+    push_config = _push_config(pushes, push_impulse, push_duration_s)
+    player = StrictEpisodePlayer(policy, env, strict_fall_detector(env), push_config)
+    tally = EvaluationTally(episodes, env.config.control_hz)
     phases = start_phases(episodes)
-    # Buffers made once: each step copies the character's reward features into a row.
-    capacity = max(track.horizon_steps, track.start_steps) + 1
-    sim_rows = np.empty((capacity, env.features.sim.values.shape[1]))
-    ref_rows = np.empty(capacity, dtype=np.int64)
-    sim_values = env.features.sim.values[0]  # written by every env.step
-    obs_row = np.zeros((1, env.observation_space.shape[0]), np.float32)
-    # The deterministic action is the policy's mean: NumpyPolicy / OnnxPolicy.mean skips act()'s
-    # log-density (~10 % of an evaluation step); other policies answer act(deterministic=True).
-    mean = getattr(policy, "mean", None)
-    if not callable(mean):
-        mean = None
-        act = policy.act
-
-    returns, lengths, falls = np.zeros(episodes), np.zeros(episodes), np.zeros(episodes, dtype=bool)
-    started = np.zeros(episodes)  # each episode's start phase
-    divergences = 0
-    fall_phases: list[float] = []  # the clip's phase at each fall: where in the clip episodes end
-    fall_starts: list[dict] = []  # each fall's start phase and seconds survived
-    rotation_sum = end_effector_sum = 0.0
-    error_steps = 0
-    sim_distance = ref_distance = 0.0
-    push_episodes = push_survivors = 0
     saved_config = env.config
     env.config = dataclasses.replace(saved_config, early_termination=False)  # falls are ours to judge
     try:
         for k in range(episodes):
             options = {"init": init} if init is not None else {"init": "rsi", "phase": float(phases[k])}
-            obs, _ = env.reset(seed=seed + k, options=options)
-            obs_row[0] = obs
-            start_row = env.row
-            started[k] = track.phase[start_row]
-            limit = env.max_episode_steps
-            schedule = None
-            if schedule_config is not None:
-                schedule = PushSchedule(schedule_config, hz, max(0, limit - recovery_steps), np.random.default_rng(seed + k))
-            total, steps, recorded, fell, diverged = 0.0, 0, 0, False, False
-            while steps < limit:
-                if schedule is not None:
-                    apply_push(data, root_body, schedule, steps)
-                action = mean(obs_row) if mean is not None else act(obs_row, deterministic=True)[0]
-                obs, reward, terminated, truncated, _ = env.step(action[0])
-                steps += 1
-                if terminated:  # early termination is off: only a divergence ends an episode here
-                    diverged = True
-                    break
-                sim_rows[recorded] = sim_values
-                ref_rows[recorded] = env.row
-                recorded += 1
-                if detector(data):
-                    fell = True
-                    fall_phases.append(float(track.phase[env.row]))
-                    fall_starts.append({"start_phase": round(float(track.phase[start_row]), 3), "seconds": round(steps / hz, 2)})
-                    total += 0.0 if zero_on_fall else reward
-                    break
-                total += reward
-                if truncated:
-                    break
-                obs_row[0] = obs
-            if schedule is not None:
-                apply_push(data, root_body, None, 0)  # no force left behind
-                if len(schedule.starts) == pushes:
-                    push_episodes += 1
-                    push_survivors += not (fell or diverged)
-            returns[k] = total / env.max_episode_return()  # = max_reward x limit without a scene
-            lengths[k] = steps
-            falls[k] = fell or diverged
-            divergences += diverged
-            if recorded:
-                sim = RewardFeatures(sim_rows[:recorded], env.features.reward_shape)
-                ref = track.features.take(ref_rows[:recorded])
-                rotation, end_effector = tracking_errors(sim, ref)
-                rotation_sum += float(rotation.sum())
-                end_effector_sum += float(end_effector.sum())
-                error_steps += recorded
-                if track.motion.loop:
-                    sim_distance += float(np.linalg.norm(sim.root_xy[-1] - track.qpos[start_row, :2]))
-                    ref_distance += float(np.linalg.norm(track.qpos[ref_rows[recorded - 1], :2] - track.qpos[start_row, :2]))
+            tally.add(k, player.play(seed + k, options))
     finally:
         env.config = saved_config
-    mean_length = float(lengths.mean())
-    # Only for clips that travel: a looped clip moving its root at least TRAVEL_M per cycle.
-    travels = track.motion.loop and float(np.linalg.norm(track.motion.cycle_offset[:2])) >= TRAVEL_M
-    result = {
-        "normalized_return": float(returns.mean()),
-        "normalized_return_std": float(returns.std()),
-        "fall_rate": float(falls.mean()),
-        "episode_length": mean_length,
-        "episode_seconds": mean_length / hz,
-        "joint_rotation_error_rad": rotation_sum / error_steps if error_steps else None,
-        "end_effector_error_m": end_effector_sum / error_steps if error_steps else None,
-        "distance_ratio": sim_distance / ref_distance if travels and ref_distance > 0 else None,
-        "divergences": int(divergences),
-        "episodes": int(episodes),
-        "fall_phases": [round(p, 3) for p in sorted(fall_phases)],
-        "fall_starts": sorted(fall_starts, key=lambda f: f["start_phase"]),
-        "start_returns": [[round(float(p), 3), round(float(r), 4)] for p, r in zip(started, returns)],
-    }
-    if schedule_config is not None:
-        result.update(pushes=int(pushes), push_impulse_ns=schedule_config.impulse, push_duration_s=schedule_config.duration_s,
-                      push_episodes=int(push_episodes),
-                      push_survival_rate=push_survivors / push_episodes if push_episodes else None)
-    return result
+    return tally.figures(env.track.motion, push_config)
 
 
 def first_frame_episode(policy, env: ImitationEnv, seed: int = 0) -> dict:

@@ -110,7 +110,7 @@ def test_a_tiny_g1_expert_trains_and_its_table_rows_read_the_g1(tmp_path, monkey
     from services.experts import table as table_module
     from services.experts.library import load_expert
     from services.experts.mirrored_expert import MirroredExpert
-    from services.training import evaluation
+    from services.training import evaluation, strict_episode
 
     out = tmp_path / "experts"
     summary = run_experts_job(["walk", "walk_mirror"], out, samples=2048, parallel=1, template=tiny_template(2048),
@@ -144,7 +144,8 @@ def test_a_tiny_g1_expert_trains_and_its_table_rows_read_the_g1(tmp_path, monkey
         seen.append((sim.hinges.shape[1], sim.end_effectors.shape[1], ref.hinges.shape[1], ref.end_effectors.shape[1]))
         return original(sim, ref)
 
-    monkeypatch.setattr(evaluation, "tracking_errors", spy)
+    monkeypatch.setattr(evaluation, "tracking_errors", spy)  # the table's curve
+    monkeypatch.setattr(strict_episode, "tracking_errors", spy)  # its evaluations' episodes
     table = table_module.build_table(out, episodes=1, starts=2, curve_seconds=0.3, progress=False)
     assert [row["clip"] for row in table["experts"]] == ["walk", "walk_mirror"]  # the G1's mirror by symmetry
     for row in table["experts"]:

@@ -18,14 +18,9 @@ from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.motion.reference_motion import ReferenceMotion
 from actors.character.skeleton import JOINT_IS_SPHERICAL, JOINT_NAMES, LINK_NAMES
 from services.cli import main
-from services.training.evaluation import (
-    DEFAULT_EPISODES,
-    PUSH_RECOVERY_S,
-    TrainingEvaluator,
-    evaluate_policy,
-    make_eval_env,
-    tracking_errors,
-)
+from services.training.evaluation import DEFAULT_EPISODES, TrainingEvaluator, evaluate_policy, make_eval_env
+from services.training.strict_episode import PUSH_RECOVERY_S
+from services.training.tracking_error import tracking_errors
 
 STAND_HEIGHT = 0.885  # root height at which the rest pose's feet just touch the floor
 REVOLUTE_NAMES = [n for n, s in zip(JOINT_NAMES, JOINT_IS_SPHERICAL) if not s]
