@@ -56,15 +56,7 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
-    from services import console
-    from services.render.gl import defuse_unusable_backend
-
-    # Before anything imports gRPC, Ray or MuJoCo: quiet libraries, and no GL a command does not need.
-    console.configure(verbose=VERBOSE_FLAG in argv)
-    defuse_unusable_backend()
-    args = build_parser(argv).parse_args(argv)
+def _run(args: argparse.Namespace) -> int:
     try:
         return int(args.handler(args) or 0)
     except SfvError as exc:
@@ -76,6 +68,27 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("sfv: interrupted", file=sys.stderr)
         return 130
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    from services import console
+    from services.native_output import ROUTE
+    from services.render.gl import defuse_unusable_backend
+
+    # Before anything imports gRPC, Ray or MuJoCo: quiet libraries, and no GL a command does not need.
+    verbose = VERBOSE_FLAG in argv
+    console.configure(verbose=verbose)
+    defuse_unusable_backend()
+    args = build_parser(argv).parse_args(argv)
+    routed = not verbose and ROUTE.start()  # native library output (fd 2) to the run's log
+    code = 1
+    try:
+        code = _run(args)
+        return code
+    finally:
+        if routed:
+            ROUTE.stop(failed=code != 0)
 
 
 if __name__ == "__main__":

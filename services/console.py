@@ -6,6 +6,8 @@ command knows its run directory are kept in memory and written there once it doe
 `configure(verbose=True)` (`sfv --verbose`) shows everything on the terminal as well, and
 lets Ray forward its workers' output (`services/ray_session.py` reads `is_verbose`).
 
+Native library output (C/C++ writing to fd 2) follows the same way (`services/native_output.py`).
+
 `configure` runs in the `sfv` entry point before anything imports gRPC or Ray: gRPC reads its
 settings from the environment once, when it loads, and Ray's processes inherit them.
 """
@@ -109,4 +111,7 @@ def attach_log_file(directory: str | os.PathLike) -> Path:
         _pending = None
     root.addHandler(handler)
     _installed.append(handler)
+    from services.native_output import ROUTE
+
+    ROUTE.follow(path)  # native library output (fd 2) too, when the entry point routes it
     return path
