@@ -9,7 +9,7 @@ from learner.errors import SfvError
 def add_person_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--person", type=int, default=None, metavar="ID",
                         help="follow this identity (ids as `sfv pose --people PREVIEW.png` lists them); "
-                             "default: the person seen in the most frames, ties to the larger one")
+                             "default: of the people seen throughout, the one who moves most (said in one line)")
     parser.add_argument("--person-at", default=None, metavar="X,Y@FRAME",
                         help="follow the person whose keypoints cover pixel X,Y in frame FRAME")
     parser.add_argument("--frames", default=None, metavar="A:B",

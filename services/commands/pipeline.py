@@ -25,11 +25,13 @@ HELP = "reconstruct a motion from a video, then train a controller for it"  # th
 
 
 def register(sub) -> None:
+    from services.commands._person_args import add_person_arguments
     from services.commands._pipeline_settings import PIPELINE_DEFAULT_TEXT, PIPELINE_SETS
     from services.training.flags import add_config_flags
 
     p = sub.add_parser("pipeline", help=HELP,
-                       usage="sfv pipeline VIDEO --out DIR [--camera static|moving] [--scene BOXES.yaml] [--resume] "
+                       usage="sfv pipeline VIDEO --out DIR [--person ID | --person-at X,Y@FRAME] [--frames A:B] [--camera static|moving] "
+                             "[--scene BOXES.yaml] [--resume] "
                              "[--checkpoint best|latest] [--finish-only] "
                              "[--config FILE.yaml] [training settings ...]  (sfv pipeline --help lists every setting)",
                        description="Reconstruct a motion from a video, then train a controller for it. The training "
@@ -37,6 +39,7 @@ def register(sub) -> None:
     p.add_argument("video", type=Path, help="input video of one person")
     p.add_argument("--out", type=Path, required=True, help="output directory: track.npz, motion.npz, train/, then (static "
                    "camera) simulated.npz, simulated.bvh, video.mp4, overlay_strip.png, report.json")
+    add_person_arguments(p)
     p.add_argument("--pose-models", default=None, help="BlazePose model directory (default: `sfv models fetch` cache)")
     p.add_argument("--iterations", type=int, default=None, help="reconstruction optimiser steps")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -68,6 +71,13 @@ def run(args) -> int:
         raise SfvError("--finish-only is for --camera static (the moving path writes its outputs itself; --resume continues it)")
     if args.camera == "moving":
         from services.commands._moving_pipeline import run_moving
+
+        chosen = [f for f, v in (("--person", args.person), ("--person-at", args.person_at), ("--frames", args.frames))
+                  if v is not None]
+        if chosen:
+            from learner.errors import SfvError
+
+            raise SfvError(f"{chosen[0]} is for --camera static (the moving path follows the default subject)")
 
         return run_moving(args)
     from learner.errors import SfvError
@@ -116,6 +126,7 @@ def run_static(args) -> int:
     from actors.motion.formats.io import save_motion
     from learner.errors import SfvError
     from services.pose import estimate_video
+    from services.commands._person_args import frame_range, person_choice
     from services.commands._pipeline_settings import STATIC_DEFAULTS, train_config
     from services.console import attach_log_file
     from services.pose.video import probe_video
@@ -126,6 +137,7 @@ def run_static(args) -> int:
 
     out: Path = args.out
     train = train_config(args, str(out / "motion.npz"), str(out / "train"), STATIC_DEFAULTS)  # a bad setting: one line before any work
+    choice, frames = person_choice(args), frame_range(args)
     probe_video(args.video)  # missing file / not a video / no frames: one-line error before any work
     if (out / "motion.npz").exists():
         raise SfvError(f"{out}: holds a pipeline run already; choose another --out (or --finish-only to play its "
@@ -137,9 +149,12 @@ def run_static(args) -> int:
         config = dataclasses.replace(config, iterations=args.iterations)
     started_ray = connect_ray(train.ray_address)
     try:
-        track = estimate_video(args.video, models_dir=args.pose_models, use_ray=True)
+        track = estimate_video(args.video, models_dir=args.pose_models, use_ray=True, choice=choice, frames=frames,
+                               say=print)
         track.save(out / "track.npz")
-        motion = video_motion(track, config, args.video.stem, "static", str(args.video)).motion
+        made = video_motion(track, config, args.video.stem, "static", str(args.video))
+        print(made.check)
+        motion = made.motion
         motion_path = save_motion(motion, out / "motion.npz")
         train.motion = str(motion_path)
         record = Trainer(train, progress=not args.quiet).run()

@@ -37,7 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run_pose(args: argparse.Namespace) -> int:
     from services.pose.contact_sheet import write_contact_sheet
     from services.pose.pipeline import estimate_people
-    from services.pose.subject import choose_subject, subject_track
+    from services.pose.subject import choose_subject, subject_reason, subject_track
 
     if args.chunk_frames < 1:
         raise SfvError(f"--chunk-frames must be >= 1, got {args.chunk_frames}")
@@ -57,7 +57,8 @@ def run_pose(args: argparse.Namespace) -> int:
         write_contact_sheet(people, args.video, args.people)
         for s in people.people():
             print(f"  person {s.person}: frames {s.first_frame}-{s.last_frame}, seen in {s.frames_seen}, "
-                  f"size {s.size_px:.0f} px{'  <- subject' if s.person == person else ''}")
+                  f"size {s.size_px:.0f} px, moves {s.activity:.1f} body sizes/s{'  <- subject' if s.person == person else ''}")
+    print(subject_reason(people, person, choice))
     track = subject_track(people, person)
     if args.out is not None:
         track.save(args.out)

@@ -71,7 +71,8 @@ def run_reconstruct(args: argparse.Namespace) -> int:
         if args.track is not None:
             track = PoseTrack.load(args.track)
         else:
-            track = estimate_video(args.video, models_dir=args.pose_models, use_ray=use_ray, choice=choice, frames=frames)
+            track = estimate_video(args.video, models_dir=args.pose_models, use_ray=use_ray, choice=choice, frames=frames,
+                                   say=print)
             if args.save_track is not None:
                 track.save(args.save_track)
         made = video_motion(track, config, args.video.stem, args.camera, str(args.track or args.video), use_ray)
@@ -81,6 +82,8 @@ def run_reconstruct(args: argparse.Namespace) -> int:
 
             ray.shutdown()
     motion, track = made.motion, made.track
+    if made.check:
+        print(made.check)
     save_motion(motion, args.out)
     elapsed = time.perf_counter() - started
     flipped = int(motion.extras["label_flipped"].sum())

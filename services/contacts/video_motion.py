@@ -8,11 +8,16 @@ foot-contact estimate, which it records and, for a static camera, fits the feet 
 ground and not sliding where they are down, `services/reconstruction/contact_fit.py`). A moving
 camera keeps the contacts as cues only: the static-camera world the fit uses moves with the
 pan, so a foot held still there would fight the keypoints; its motion is written root-free.
+A static camera's root path is then checked for launches no body makes and repaired where it
+has them (`services/reconstruction/plausibility.py`); `VideoMotion.check` is the one line that
+says what was found, also kept in the motion as `reference_check`.
 """
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+
+import numpy as np
 
 
 @dataclass
@@ -21,6 +26,7 @@ class VideoMotion:
     track: object  # the services.pose.PoseTrack it was made from (cut to the subject's frames)
     path: object  # services.pose.camera_path.CameraPath, or None where the track did not measure it
     moving: bool
+    check: str = ""  # the reference check's one line (static camera)
 
 
 def video_motion(track, config, name: str, camera: str, source: str, use_ray: bool = True) -> VideoMotion:
@@ -30,6 +36,7 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
     from services.pose.camera_path import camera_path, decide_camera
     from services.pose.subject import crop_to_seen
     from services.reconstruction import reconstruct_on_ray, reconstruct_track
+    from services.reconstruction.plausibility import check_reference
     from services.reconstruction.root_free import make_root_free
 
     track = crop_to_seen(track, source)
@@ -40,4 +47,8 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
     reconstruct = reconstruct_on_ray if use_ray else reconstruct_track
     motion = reconstruct(track, config, name, track_contacts)
     motion.extras.update(video_extras(track, path, moving))
-    return VideoMotion(make_root_free(motion) if moving else motion, track, path, moving)
+    if moving:
+        return VideoMotion(make_root_free(motion), track, path, moving)
+    motion, check = check_reference(motion, motion.extras.get("contacts"))
+    motion.extras["reference_check"] = np.array(check.line)
+    return VideoMotion(motion, track, path, moving, check.line)

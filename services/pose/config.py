@@ -30,6 +30,12 @@ class PoseConfig:
     detect_interval: int = field(default=4, metadata={
         "help": "every this many frames (and whenever nobody is tracked) the detector looks for people "
                 "no track covers yet"})
+    settle_rounds: int = field(default=4, metadata={
+        "help": "times a new person's first answer is re-estimated on its own frame from the ROI its landmarks "
+                "give, replacing the detector's (0: MediaPipe's behaviour, the first frame from the detector's ROI)"})
+    settle_tolerance: float = field(default=0.03, metadata={
+        "help": "ROI change (centre shift plus side change, fraction of its side) below which a new person's ROI "
+                "has settled"})
     duplicate_iou: float = field(default=0.5, metadata={
         "help": "overlap (IoU) of two answers' keypoint boxes above which they are the same person "
                 "(the newer track ends)"})

@@ -14,6 +14,13 @@ Where a track's answer is not confident it also tries its ROI turned by 90, 180 
 degrees (SFV section 5 trains with rotated images; the pretrained model is given rotated
 crops at inference instead), keeping the most confident coherent answer. A frame where
 nobody is tracked or detected upright is also searched turned by 90/180/270 degrees.
+A new track's first answer is settled on its own frame: the detector's ROI (from face and hip
+alignment points) is replaced by the one the landmarks give, until it stops moving
+(`PeopleEstimator._settled`). On Pose2Sim two-people cam02 the woman seen from behind got, from the
+detector's ROI, a body 591 px tall in frame 0 against 728-744 px in frames 1-5 as tracking
+converged (her BlazePose 3D height 1.04 m, then 1.24, 1.29, 1.42, 1.45, 1.47): a subject who
+has just appeared looked 20 % smaller, i.e. 0.4 m deeper, and the reference launched her
+root 0.22 m toward the camera in its first frame.
 Local track ids are per chunk; `services.pose.identity` joins them across chunks and gaps.
 """
 from __future__ import annotations
@@ -27,7 +34,7 @@ from services.pose.detector import PersonDetection
 from services.pose.estimator import load_pose_models, roi_in_original, rotate_frame
 from services.pose.landmarks import NUM_BODY_LANDMARKS, FramePose
 from services.pose.models import PoseModelFiles
-from services.pose.roi import Roi, roi_from_alignment_points
+from services.pose.roi import Roi, normalize_radians, roi_from_alignment_points
 
 FACE_LANDMARKS = slice(0, 11)  # nose .. mouth: the region the detector's box covers
 TURNS = (90, 180, 270)
@@ -63,6 +70,14 @@ def box_iou(a: np.ndarray, b: np.ndarray) -> float:
     inter = np.clip(np.minimum(a[2:], b[2:]) - np.maximum(a[:2], b[:2]), 0.0, None).prod()
     union = np.prod(a[2:] - a[:2]) + np.prod(b[2:] - b[:2]) - inter
     return float(inter / max(union, 1e-9))
+
+
+def roi_change(before: Roi, after: Roi) -> float:
+    """How far one ROI is from another, as a fraction of the first's side (centre shift plus
+    side change; rotation counted as the arc it moves the ROI's corner by)."""
+    shift = np.hypot(after.centre_x - before.centre_x, after.centre_y - before.centre_y)
+    turn = abs(normalize_radians(after.rotation - before.rotation)) * 0.5
+    return float((shift + abs(after.size - before.size)) / max(before.size, 1e-9) + turn)
 
 
 class PeopleEstimator:
@@ -117,7 +132,23 @@ class PeopleEstimator:
         side = max(float(detection.box[2] - detection.box[0]), float(detection.box[3] - detection.box[1]), 1.0)
         return any(np.linalg.norm(a.pose.keypoints[FACE_LANDMARKS].mean(axis=0) - centre) < side for a in answers)
 
-    def _start(self, pose: FramePose, degrees: int, answers: list[PersonEstimate]) -> PersonEstimate | None:
+    def _settled(self, image_rgb: np.ndarray, pose: FramePose) -> FramePose:
+        """`pose` re-estimated on the same frame from its own next ROI until the ROI moves by
+        less than `settle_tolerance` of its side (at most `settle_rounds` times)."""
+        for _ in range(self.config.settle_rounds):
+            roi = pose.next_roi()
+            if roi_change(pose.roi, roi) < self.config.settle_tolerance:
+                break
+            again = self.landmarks.estimate(image_rgb, roi)
+            if again.presence < self.config.presence_threshold:
+                break
+            pose = again
+        return pose
+
+    def _start(self, pose: FramePose, degrees: int, answers: list[PersonEstimate],
+               image_rgb: np.ndarray | None = None) -> PersonEstimate | None:
+        if image_rgb is not None and pose.presence >= self.config.presence_threshold:
+            pose = self._settled(image_rgb, pose)
         if pose.presence < self.config.presence_threshold or any(self._is_duplicate(pose, a.pose) for a in answers):
             return None
         self._next_id += 1
@@ -129,7 +160,7 @@ class PeopleEstimator:
             if self._covered(detection, answers + found):
                 continue
             roi = roi_from_alignment_points(detection.keypoints[0], detection.keypoints[1])
-            started = self._start(self.landmarks.estimate(image_rgb, roi), 0, answers + found)
+            started = self._start(self.landmarks.estimate(image_rgb, roi), 0, answers + found, image_rgb)
             if started is not None:
                 found.append(started)
         return found
@@ -149,5 +180,5 @@ class PeopleEstimator:
         if not present:
             return []
         degrees, pose = max(present, key=lambda c: c[1].score)
-        started = self._start(pose, degrees, [])
+        started = self._start(pose, degrees, [], image_rgb)
         return [started] if started is not None else []

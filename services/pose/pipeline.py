@@ -13,7 +13,7 @@ from services.pose.identity import link_chunks, relink_gaps
 from services.pose.models import resolve_model_files
 from services.pose.people import PeopleEstimator
 from services.pose.people_chunk import estimate_people_chunk
-from services.pose.subject import PeopleTrack, PersonChoice, choose_subject, subject_track
+from services.pose.subject import PeopleTrack, PersonChoice, choose_subject, subject_reason, subject_track
 from services.pose.track import PoseTrack
 from services.pose.video import VideoInfo, probe_video
 
@@ -76,9 +76,13 @@ def _frame_range(info: VideoInfo, frames: tuple[int, int | None] | None) -> tupl
 def estimate_video(path: str | Path, models_dir: str | Path | None = None, use_ray: bool = False,
                    chunk_frames: int | None = None, config: PoseConfig | None = None,
                    landmark_model: str | Path | None = None, choice: PersonChoice | None = None,
-                   frames: tuple[int, int | None] | None = None) -> PoseTrack:
+                   frames: tuple[int, int | None] | None = None, say=None) -> PoseTrack:
     """The subject's per-frame BlazePose track (`estimate_people`, then `subject.py`'s choice:
-    by default the person seen longest)."""
+    by default the person seen throughout who moves most); `say` (e.g. print) gets the one
+    line naming the subject and why."""
     people = estimate_people(path, models_dir, use_ray, chunk_frames, config, landmark_model, frames)
-    person = choose_subject(people, choice or PersonChoice(), str(path))
+    choice = choice or PersonChoice()
+    person = choose_subject(people, choice, str(path))
+    if say is not None:
+        say(subject_reason(people, person, choice))
     return subject_track(people, person)

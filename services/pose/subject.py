@@ -1,7 +1,9 @@
 """Everyone a video shows (`PeopleTrack`), and the one person a motion is made of.
 
-Default subject: the identity seen in the most frames; ties go to the larger one (median
-ROI side). `--person ID` names an identity as `sfv pose --people` lists it; `--person-at
+Default subject: of the identities seen throughout (in at least SEEN_THROUGHOUT of the frames
+the most-seen one is), the one that moves most (`activity.py`: the performer, not a bystander
+who happens to be larger or first); ties go to the larger one (median ROI side).
+`subject_reason` says which and why in one line, with the `--person` that changes it. `--person ID` names an identity as `sfv pose --people` lists it; `--person-at
 X,Y@FRAME` the identity whose 2D keypoints' box holds pixel (X, Y) in that frame (the
 nearest box centre when several do). The subject's PoseTrack has one row per frame of the
 estimated range; frames where the subject is not seen are invalid and interpolated
@@ -15,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from learner.errors import SfvError
+from services.pose.activity import person_activity
 from services.pose.people_chunk import PeopleRows
 from services.pose.track import PoseTrack, fill_gaps
 
@@ -26,6 +29,7 @@ class PersonSummary:
     first_frame: int
     last_frame: int
     size_px: float  # median ROI side
+    activity: float = 0.0  # body sizes per second (`activity.py`)
 
 
 @dataclass
@@ -45,8 +49,10 @@ class PeopleTrack:
         for person in np.unique(self.rows.person):
             mine = self.rows.person == person
             frames = self.rows.frame[mine]
-            summaries.append(PersonSummary(int(person), int(mine.sum()), int(frames.min()), int(frames.max()),
-                                           float(np.median(self.rows.roi_size[mine]))))
+            size = float(np.median(self.rows.roi_size[mine]))
+            activity = person_activity(frames, self.rows.keypoints2d[mine], self.rows.confidence[mine], size, self.fps)
+            summaries.append(PersonSummary(int(person), int(mine.sum()), int(frames.min()), int(frames.max()), size,
+                                           activity))
         return summaries
 
 
@@ -90,7 +96,36 @@ def choose_subject(people: PeopleTrack, choice: PersonChoice, source: str) -> in
         return choice.person
     if choice.at is not None:
         return _person_at(people, choice.at, source)
-    return max(summaries, key=lambda s: (s.frames_seen, s.size_px)).person
+    return max(seen_throughout(summaries), key=lambda s: (s.activity, s.size_px)).person
+
+
+# Seen in at least this share of the most-seen person's frames counts as seen throughout: a
+# passer-by who walks out (70 of 100 frames in tests/people_clips.py) is not the subject however
+# much they move, while an occlusion of a few frames (99 of 100 in Pose2Sim two-people) is no reason.
+SEEN_THROUGHOUT = 0.8
+
+
+def seen_throughout(summaries: list[PersonSummary]) -> list[PersonSummary]:
+    most = max(s.frames_seen for s in summaries)
+    return [s for s in summaries if s.frames_seen >= SEEN_THROUGHOUT * most]
+
+
+def subject_reason(people: PeopleTrack, person: int, choice: PersonChoice) -> str:
+    """One line: which person is the subject, why, and the flag that changes it."""
+    summaries = {s.person: s for s in people.people()}
+    chosen = summaries[person]
+    if choice.person is not None or choice.at is not None:
+        how = f"--person {choice.person}" if choice.person is not None else "--person-at"
+        return f"subject: person {person} ({how}), seen in {chosen.frames_seen} of {people.frame_count} frames"
+    others = [s for s in summaries.values() if s.person != person]
+    if not others:
+        return f"subject: person {person}, the only one seen ({chosen.frames_seen} of {people.frame_count} frames)"
+    rivals = [s for s in seen_throughout(list(summaries.values())) if s.person != person]
+    why = (f"seen throughout and moves most, {chosen.activity:.1f} body sizes/s against "
+           + ", ".join(f"person {s.person}'s {s.activity:.1f}" for s in rivals)) if rivals else \
+        f"seen longest ({chosen.frames_seen} of {people.frame_count} frames)"
+    return (f"subject: person {person} of {len(summaries)} ({why}); "
+            f"--person {' / '.join(str(s.person) for s in others)} follows another (`sfv pose --people SHEET.png` shows them)")
 
 
 def _person_at(people: PeopleTrack, at: tuple[float, float, int], source: str) -> int:

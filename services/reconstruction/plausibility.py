@@ -1,0 +1,145 @@
+"""A reference a body can follow: root launches caught and repaired before training.
+
+A reconstruction's root path comes from image position and scale, so a frame whose 2D pose is
+wrong (a subject who has just appeared, an occlusion) puts the root metres off in depth for a
+frame or a few. Training then starts the character with the finite difference of that jump:
+Pose2Sim two-people cam02's woman, standing (median root speed 0.24 m/s), had a root speed of
+13.4, 4.5 and 4.4 m/s over her first three frames, and the controller was thrown 5.3 m and lay
+down by 0.53 s; a walker filmed in a park (1.1 m/s) started at 7.2 m/s and landed 9.6 m away.
+
+Rules (speeds between neighbouring frames, m/s):
+- a step whose root speed exceeds the median of the steps around it (MEDIAN_STEPS of them, the
+  window shifted inward at the clip's ends) by more than SPIKE_M_S: 2 m/s gained and lost
+  within 1/60 s is 120 m/s^2, 12 g, which a pelvis does not do outside an impact; the
+  reconstructions' own jitter stays under it (Pose2Sim cam02 man: median 0.7 m/s, 2.6 % of steps
+  above his local median by 1 m/s);
+- a step faster than MAX_ROOT_M_S anywhere;
+- a horizontal root speed above BOTH_FEET_DOWN_M_S while the contact estimate has both feet down
+  at both frames: the contacts contradict the motion (a walk's double support moves at about
+  1.1 m/s).
+Repair: the frames only flagged steps touch get their root re-placed. At the clip's ends the
+next good frames' median velocity is extrapolated outward; inside, the path is interpolated
+linearly between the good frames on either side (a lone flagged step spreads over three
+steps). Joint rotations are kept; the world keypoints move with the root.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+SPIKE_M_S = 2.0
+MAX_ROOT_M_S = 10.0  # a sprinter's pelvis, 10-12 m/s, is the most a video person's root can do
+BOTH_FEET_DOWN_M_S = 1.5
+MEDIAN_STEPS = 9
+SHIFTED_EXTRAS = ("keypoints3d", "raw_keypoints3d")  # world points that move with the root
+
+
+@dataclass(frozen=True)
+class ReferenceCheck:
+    """What the check found: the flagged steps, the repaired frames and the one line saying so."""
+
+    flagged_steps: np.ndarray  # (K,) step t joins frames t and t+1
+    repaired_frames: np.ndarray  # (R,)
+    line: str
+
+
+def root_speeds(root_pos: np.ndarray, fps: float, horizontal: bool = False) -> np.ndarray:
+    axes = slice(0, 2) if horizontal else slice(0, 3)
+    return np.linalg.norm(np.diff(root_pos[:, axes], axis=0), axis=1) * fps
+
+
+def local_medians(values: np.ndarray, window: int) -> np.ndarray:
+    """Median of `window` neighbours of each entry, the window shifted inward at the ends (a
+    held edge value would make an edge spike its own median)."""
+    count = len(values)
+    width = min(window, count)
+    starts = np.clip(np.arange(count) - width // 2, 0, count - width)
+    return np.array([np.median(values[s:s + width]) for s in starts])
+
+
+def flag_steps(root_pos: np.ndarray, fps: float, contacts: np.ndarray | None) -> dict[str, np.ndarray]:
+    """{rule: (T-1,) bool} of the module docstring's rules."""
+    speed = root_speeds(root_pos, fps)
+    flags = {"spike": speed > local_medians(speed, MEDIAN_STEPS) + SPIKE_M_S, "too fast": speed > MAX_ROOT_M_S}
+    if contacts is not None and len(contacts) == len(root_pos):
+        both = np.asarray(contacts, bool).all(axis=1)
+        flags["both feet down"] = both[:-1] & both[1:] & (root_speeds(root_pos, fps, horizontal=True) > BOTH_FEET_DOWN_M_S)
+    return flags
+
+
+def bad_frames(flagged: np.ndarray) -> np.ndarray:
+    """(T,) bool: frames to re-place, from (T-1,) flagged steps (see the module docstring)."""
+    steps = len(flagged)
+    bad = np.zeros(steps + 1, bool)
+    for first, last in _runs(flagged):
+        touched = np.arange(first + 1, last + 1)  # frames with flagged steps on both sides
+        if first == 0:
+            touched = np.arange(0, last + 1)
+        if last == steps - 1:
+            touched = np.union1d(touched, np.arange(first + 1, steps + 1))
+        if touched.size == 0:  # a lone step inside: spread it over the frames at its ends
+            touched = np.array([first, first + 1])
+        bad[touched] = True
+    if bad.all():
+        bad[:] = False  # nothing good to repair from: leave it, the line says so
+    return bad
+
+
+def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
+    edges = np.diff(np.concatenate(([0], flags.astype(np.int8), [0])))
+    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1))
+
+
+def repaired_root(root_pos: np.ndarray, bad: np.ndarray, fps: float) -> np.ndarray:
+    """Root positions with the `bad` frames re-placed (ends extrapolated, inside interpolated)."""
+    good = np.flatnonzero(~bad)
+    fixed = root_pos.copy()
+    frames = np.arange(len(root_pos))
+    for axis in range(3):
+        fixed[bad, axis] = np.interp(frames[bad], good, root_pos[good, axis])
+    for end, direction in ((good[0], 1), (good[-1], -1)):
+        ahead = good[(good - end) * direction >= 0][:: direction][:MEDIAN_STEPS // 2 + 1]
+        velocity = np.median(np.diff(root_pos[np.sort(ahead)], axis=0), axis=0) if ahead.size > 1 else np.zeros(3)
+        outside = frames[(frames - end) * direction < 0]
+        fixed[outside] = root_pos[end] + np.outer(outside - end, velocity)
+    return fixed
+
+
+def check_reference(motion, contacts: np.ndarray | None = None):
+    """(motion, ReferenceCheck): `motion` (a ReferenceMotion) with its root repaired where flagged
+    (a new motion, velocities from the repaired path; the same one when nothing is flagged) and
+    what was found and done, in one line."""
+    fps = float(motion.fps)
+    flags = flag_steps(motion.root_pos, fps, contacts)
+    flagged = np.logical_or.reduce(list(flags.values()))
+    speed = root_speeds(motion.root_pos, fps)
+    if not flagged.any():
+        return motion, ReferenceCheck(np.zeros(0, int), np.zeros(0, int), f"reference check: the root moves at "
+                              f"{np.median(speed):.2f} m/s (median), at most {speed.max():.2f} m/s between frames; "
+                              "nothing to repair")
+    bad = bad_frames(flagged)
+    steps = np.flatnonzero(flagged)
+    worst = int(steps[np.argmax(speed[steps])])
+    rules = ", ".join(name for name, f in flags.items() if f.any())
+    found = (f"reference check: the root moves {speed[worst]:.1f} m/s between frames {worst} and {worst + 1} "
+             f"(clip median {np.median(speed):.2f} m/s; {len(steps)} step(s) flagged: {rules})")
+    if not bad.any():
+        return motion, ReferenceCheck(steps, np.zeros(0, int), found + "; no plausible frame to repair from, left as is")
+    fixed = repaired_root(motion.root_pos, bad, fps)
+    shift = fixed - motion.root_pos
+    extras = dict(motion.extras)
+    for key in SHIFTED_EXTRAS:
+        if key in extras:
+            extras[key] = extras[key] + shift[:, None]
+    repaired = dataclasses.replace(motion, root_pos=fixed, extras=extras)  # velocities from the repaired path
+    frames = np.flatnonzero(bad)
+    after = root_speeds(fixed, fps).max()
+    return repaired, ReferenceCheck(steps, frames, found + f"; repaired the root in frames {_ranges(frames)} "
+                          f"(now at most {after:.2f} m/s)")
+
+
+def _ranges(frames: np.ndarray) -> str:
+    runs = _runs(np.isin(np.arange(frames.max() + 1), frames))
+    return ", ".join(f"{a}" if a == b else f"{a}-{b}" for a, b in runs)

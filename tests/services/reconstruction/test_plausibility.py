@@ -1,0 +1,102 @@
+"""The reference check: root launches no body makes are flagged and repaired before training."""
+import numpy as np
+
+from actors.motion.reference_motion import ReferenceMotion
+from services.reconstruction.plausibility import (
+    bad_frames,
+    check_reference,
+    flag_steps,
+    local_medians,
+    repaired_root,
+    root_speeds,
+)
+
+FPS = 60.0
+
+
+def _standing(frames: int = 60, seed: int = 0) -> np.ndarray:
+    """A root that stands with 5 mm of jitter: well under every rule."""
+    rng = np.random.default_rng(seed)
+    root = np.tile([0.0, 0.0, 0.9], (frames, 1))
+    return root + rng.normal(0.0, 0.005, root.shape)
+
+
+def _motion(root: np.ndarray, extras: dict | None = None) -> ReferenceMotion:
+    frames = len(root)
+    identity = np.tile([1.0, 0.0, 0.0, 0.0], (frames, 1))
+    return ReferenceMotion(name="t", frame_times=np.arange(frames) / FPS, root_pos=root, root_rot=identity,
+                           joint_rot=np.tile(identity[:, None], (1, 12, 1)), loop=False, extras=extras or {})
+
+
+def test_local_median_is_shifted_inward_at_the_ends_so_an_edge_spike_is_not_its_own_median():
+    speeds = np.array([13.4, 4.5, 4.4, 3.0, 1.6, 0.9, 0.3, 0.3, 0.2, 0.3, 0.2])
+    medians = local_medians(speeds, 9)
+    assert medians[0] < 2.0 and medians[0] == medians[4]  # rows 0..8 for the first five
+    assert np.isclose(medians[-1], np.median(speeds[-9:]))
+
+
+def test_a_standing_root_with_jitter_is_left_alone():
+    root = _standing()
+    motion = _motion(root)
+    checked, check = check_reference(motion)
+    assert checked is motion and check.repaired_frames.size == 0
+    assert "nothing to repair" in check.line
+
+
+def test_the_first_frame_launch_is_repaired_and_said_in_one_line():
+    root = _standing()
+    # the two-people cam02 woman before the ROI fix: 0.22 m toward the camera in frame 0, then converging
+    root[0, 1] -= 0.22
+    root[1, 1] -= 0.075
+    root[2, 1] -= 0.003
+    keypoints = np.repeat(root[:, None], 12, axis=1) + 0.3
+    checked, check = check_reference(_motion(root, {"keypoints3d": keypoints.copy()}))
+    assert check.repaired_frames.tolist()[:1] == [0]
+    assert "between frames 0 and 1" in check.line and "repaired the root in frames 0" in check.line
+    assert "\n" not in check.line
+    jitter = root_speeds(_standing(), FPS).max()  # 1.2 m/s at most from the 5 mm jitter
+    assert root_speeds(root, FPS).max() > 8 and root_speeds(checked.root_pos, FPS).max() <= jitter
+    assert np.linalg.norm(checked.sample(0.0).root_lin_vel) < jitter  # the start velocity training would use
+    # world keypoints moved with the root
+    np.testing.assert_allclose(checked.extras["keypoints3d"] - checked.root_pos[:, None], keypoints - root[:, None])
+
+
+def test_a_spike_inside_is_interpolated_and_the_good_frames_kept():
+    root = _standing()
+    root[30, 1] += 0.15  # one frame 15 cm off: 9 m/s out and back
+    checked, check = check_reference(_motion(root))
+    assert check.repaired_frames.tolist() == [30]
+    np.testing.assert_allclose(checked.root_pos[30], (root[29] + root[31]) / 2)
+    untouched = np.setdiff1d(np.arange(len(root)), [30])
+    np.testing.assert_array_equal(checked.root_pos[untouched], root[untouched])
+
+
+def test_both_feet_down_contradicts_a_fast_root():
+    frames = 40
+    root = np.zeros((frames, 3))
+    root[:, 0] = np.arange(frames) * 2.0 / FPS  # a steady 2 m/s: no spike
+    root[:, 2] = 0.9
+    contacts = np.zeros((frames, 2), bool)
+    assert not any(f.any() for f in flag_steps(root, FPS, contacts).values())
+    contacts[10:20] = True
+    flags = flag_steps(root, FPS, contacts)
+    assert np.flatnonzero(flags["both feet down"]).tolist() == list(range(10, 19))
+    assert not flags["spike"].any()
+
+
+def test_end_frames_are_extrapolated_at_the_good_velocity():
+    frames = 30
+    root = np.zeros((frames, 3))
+    root[:, 0] = np.arange(frames) * 1.0 / FPS  # walking 1 m/s
+    bad = np.zeros(frames, bool)
+    bad[-3:] = True
+    fixed = repaired_root(root + np.where(bad[:, None], 5.0, 0.0), bad, FPS)
+    np.testing.assert_allclose(fixed, root, atol=1e-12)
+
+
+def test_a_lone_step_inside_spreads_over_the_frames_at_its_ends():
+    flagged = np.zeros(20, bool)
+    flagged[10] = True
+    assert np.flatnonzero(bad_frames(flagged)).tolist() == [10, 11]
+    flagged[:] = True
+    assert not bad_frames(flagged).any()  # nothing good to repair from
