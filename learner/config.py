@@ -51,6 +51,8 @@ class PPOConfig:
     gae_lambda: float = field(default=0.95, metadata={"help": "GAE(lambda) for policy advantages (paper: 0.95)"})
     td_lambda: float = field(default=0.95, metadata={"help": "TD(lambda) for value targets (paper: 0.95)"})
     clip_coef: float = field(default=0.2, metadata={"help": "PPO ratio clipping threshold epsilon (paper: 0.2)"})
+    max_importance_weight: float = field(
+        default=2.0, metadata={"help": "truncation of pi_learner / pi_behaviour for samples drawn by older weights (asynchronous runs)"})
     target_kl: float | None = field(
         default=0.05,
         metadata={"help": "stop the update's remaining minibatches once approx KL exceeds this; None disables"},
@@ -138,7 +140,7 @@ class PPOConfig:
         for name in ("gamma", "gae_lambda", "td_lambda"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 problems.append(f"{name} must be in [0, 1]")
-        for name in ("clip_coef", "action_std", "obs_clip", "policy_lr", "value_lr", "adv_clip", "action_bound"):
+        for name in ("clip_coef", "action_std", "obs_clip", "policy_lr", "value_lr", "adv_clip", "action_bound", "max_importance_weight"):
             if not getattr(self, name) > 0.0:
                 problems.append(f"{name} must be > 0")
         if self.reward_max is not None and not self.reward_max > 0.0:

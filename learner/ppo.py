@@ -61,6 +61,28 @@ def clipped_surrogate_loss(
     return torch.maximum(unclipped, clipped).mean(), ratio, log_ratio
 
 
+def decoupled_surrogate_loss(
+    new_logp: torch.Tensor, prox_logp: torch.Tensor, behaviour_logp: torch.Tensor, advantages: torch.Tensor,
+    clip_coef: float, max_weight: float,
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """PPO's clipped objective for samples from an older policy (decoupled PPO, Hilton et al.
+    2021, "Batch size-invariance for policy optimization"): the ratio is clipped around the
+    *proximal* policy (the learner's weights when the update starts) and the behaviour policy
+    that drew the samples enters only as an importance weight pi_prox / pi_behaviour,
+    truncated at `max_weight` (V-trace's rho-bar, for the variance). Clipping against the
+    behaviour policy instead would let an update's first step already sit at the clip edge
+    for a lagged sample, so a stale batch would barely train. With no lag both policies are
+    one and this is `clipped_surrogate_loss`.
+
+    Returns (loss, ratio, log_ratio) with the ratio against the proximal policy."""
+    weight = (prox_logp - behaviour_logp).exp().clamp(max=max_weight)
+    log_ratio = new_logp - prox_logp
+    ratio = log_ratio.exp()
+    unclipped = -advantages * ratio
+    clipped = -advantages * ratio.clamp(1.0 - clip_coef, 1.0 + clip_coef)
+    return (weight * torch.maximum(unclipped, clipped)).mean(), ratio, log_ratio
+
+
 def action_bound_loss(action_mean: torch.Tensor, bound: float) -> torch.Tensor:
     """Squared excess of the mean beyond +-bound: the env clips there, so without it the
     reward stops depending on the mean and nothing pulls it back."""
@@ -148,6 +170,7 @@ class PPOLearner:
         self.policy_optimizer = self._make_optimizer(self.policy, cfg.policy_lr)
         self.policy_lr = float(cfg.policy_lr)  # the rate in force: annealed, or adapted to the KL
         self.value_optimizer = self._make_optimizer(self.value, cfg.value_lr)
+        self._policy_lag = 0  # of the batch being learned from (`update`)
 
     def _make_optimizer(self, network: torch.nn.Module, lr: float) -> torch.optim.Optimizer:
         # torch picks the multi-tensor paths by default only on CUDA. On CPU, foreach makes SGD's
@@ -185,8 +208,11 @@ class PPOLearner:
         """One PPO iteration on a time-major batch; returns CleanRL-named metrics.
 
         Raises NonFiniteError (learner unchanged) for NaN/inf input, losses or gradients.
+        `batch["policy_lag"]` (optional, default 0): how many updates older than this learner the
+        oldest weights that drew the batch are; above 0 the loss is `decoupled_surrogate_loss`.
         """
         arrays = validate_batch(batch, self.obs_dim, self.act_dim)
+        self._policy_lag = int(batch.get("policy_lag", 0))
         # A full backup (weights, Adam moments, normaliser, RNG: ~20 MB, some ms at the paper's
         # sizes) is what lets a failure in minibatch k undo the k - 1 steps already taken.
         before = copy.deepcopy(self.state_dict())
@@ -246,14 +272,20 @@ class PPOLearner:
             advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
             advantages = np.clip(advantages, -cfg.adv_clip, cfg.adv_clip)
 
-        columns = (obs_norm, self._to_tensor(arrays["actions"].reshape(steps * envs, self.act_dim)), self._to_tensor(arrays["logp"].ravel()))
+        actions = self._to_tensor(arrays["actions"].reshape(steps * envs, self.act_dim))
+        columns = (obs_norm, actions, self._to_tensor(arrays["logp"].ravel()))
+        if self._policy_lag > 0:  # the proximal policy's log-probs: the learner's weights before the update
+            with torch.no_grad():
+                columns += (self.policy.distribution(obs_norm).log_prob(actions).sum(-1),)
         if kept is not None:
             rows = torch.from_numpy(kept).to(self.device)
             columns = tuple(column[rows] for column in columns)
+        obs_col, actions_col, logp_col, *prox_col = columns
         minibatches = self._minibatches(
-            *columns,
+            obs_col, actions_col, logp_col,
             self._to_tensor(advantages.astype(np.float32)),
             self._to_tensor(value_targets.astype(np.float32)),
+            *prox_col,
         )
         sums: dict[str, float] = {}
         gradient_steps = 0
@@ -295,11 +327,16 @@ class PPOLearner:
         old_logp: torch.Tensor,
         advantages: torch.Tensor,
         value_targets: torch.Tensor,
+        prox_logp: torch.Tensor | None = None,
     ) -> dict[str, float]:
         cfg = self.config
         dist = self.policy.distribution(obs_norm)
         new_logp = dist.log_prob(actions).sum(-1)
-        surrogate, ratio, log_ratio = clipped_surrogate_loss(new_logp, old_logp, advantages, cfg.clip_coef)
+        if prox_logp is None:
+            surrogate, ratio, log_ratio = clipped_surrogate_loss(new_logp, old_logp, advantages, cfg.clip_coef)
+        else:
+            surrogate, ratio, log_ratio = decoupled_surrogate_loss(new_logp, prox_logp, old_logp, advantages, cfg.clip_coef,
+                                                                   cfg.max_importance_weight)
         bound_loss = action_bound_loss(dist.mean, cfg.action_bound)
         policy_loss = surrogate + cfg.action_bound_coef * bound_loss
         value_loss = 0.5 * (self.value(obs_norm) - value_targets).square().mean()

@@ -41,6 +41,7 @@ class TrainConfig:
     runner: str = field(default="ray", metadata={"choices": RUNNER_NAMES, "help": "how rollout workers run: ray (Ray actors, restarted when they die), in_process (this process, no Ray: debugging, CI) or processes (spawned processes over pipes: hosts without Ray)"})
     device: str = field(default="cpu", metadata={"help": "torch device of the learner"})
     torch_threads: int = field(default=0, metadata={"help": "learner's torch CPU threads; 0 = every core of this node: workers wait while the learner updates (2 workers on 2 cores: 0.60-0.64 of the raw bound end to end with 2 threads, 0.52 with 1, measured)"})
+    max_policy_lag: int = field(default=0, metadata={"help": "0: synchronous loop (workers wait for each update; bit-reproducible); K >= 1: workers keep sampling with weights up to K updates old while the learner updates (decoupled PPO clipping, --ppo.max-importance-weight)"})
     worker_timeout_s: float = field(default=300.0, metadata={"help": "give up on a worker's batch after this long and hand it to another"})
     plot_every: int = field(default=5, metadata={"help": "iterations between redraws of the learning-curve PNG (0: never)"})
     plot_min_interval_s: float = field(default=30.0, metadata={"help": "and at least this many seconds between redraws (each costs ~0.2 s of the loop); the last iteration always redraws"})
@@ -80,6 +81,8 @@ class TrainConfig:
             self.ppo.validate()
         except ConfigError as exc:
             raise SfvError(str(exc)) from None
+        if self.max_policy_lag < 0:
+            raise SfvError(f"--max-policy-lag must be >= 0 (0: synchronous), got {self.max_policy_lag}")
         if self.torch_threads < 0:
             raise SfvError(f"--torch-threads must be >= 0 (0: every core), got {self.torch_threads}")
         if not self.asi_initial_std_scale > 0:

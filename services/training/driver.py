@@ -9,7 +9,8 @@ Faults (docs/faults.md has the measured numbers): the Ray runner restarts dead a
 workers and reissues their shares (`worker_failures`, `worker_restarts` in metrics.jsonl). A
 worker that raises SfvError (ASI server gone for longer than `asi_outage_s`, a request the
 server refuses) stops training with that message. Every batch is checked to come from one
-policy version. A non-finite observation, reward or gradient stops training with a message
+policy version (synchronous loop) or from versions at most `--max-policy-lag` old
+(asynchronous loop, `async_collector.py`). A non-finite observation, reward or gradient stops training with a message
 naming it, before any checkpoint could be poisoned. `--resume` skips (with a warning) a
 newest checkpoint that fails its integrity check and resumes from the one before.
 """
@@ -34,6 +35,7 @@ from learner.ppo import PPOLearner
 from learner.schedule import linear_anneal
 from learner.tuple_sampling import select_tuples
 from services.training.asi_connection import ASIConnection
+from services.training.async_collector import AsyncCollector
 from services.training.config import TrainConfig
 from services.training.run_dir import (
     BEST_CHECKPOINT,
@@ -69,6 +71,7 @@ class Trainer:
         self.run_dir = Path(config.out)
         self.faults = WorkerFaults()
         self.runner: WorkerRunner | None = None
+        self.collector: AsyncCollector | None = None  # the asynchronous loop's (max_policy_lag >= 1)
         self.samples = 0
         self.iteration = 0
         self.best_eval: float | None = None  # the best periodic evaluation's normalised return (best.pt)
@@ -113,13 +116,15 @@ class Trainer:
     def _collect(self, weights, version: int, steps: int) -> list[dict]:
         horizon = self._horizon_s()
         options = {} if horizon is None else {"horizon_s": horizon}  # RolloutWorker.sample's optional arguments
+        if self.collector is not None:
+            return self.collector.next_batch(weights, version, options)
         return self.runner.collect(weights, version, steps, options)
 
-    @staticmethod
-    def _merge(results: list[dict], version: int) -> dict:
+    def _merge(self, results: list[dict], version: int) -> dict:
         versions = {int(r["policy_version"]) for r in results}
-        if versions != {version}:
-            raise SfvError(f"internal: a batch mixes policy versions {sorted(versions)} (expected {version})")
+        oldest = version - self.config.max_policy_lag
+        if not all(oldest <= v <= version for v in versions):
+            raise SfvError(f"internal: a batch mixes policy versions {sorted(versions)} (expected {oldest}..{version})")
         batch = {k: np.concatenate([r[k] for r in results], axis=1) for k in TRAJECTORY_KEYS}
         batch["frames"] = np.concatenate([r["frames"] for r in results], axis=1)
         for k in results[0]:
@@ -128,6 +133,9 @@ class Trainer:
         batch["asi_version"] = max(int(r["asi_version"]) for r in results)
         batch["asi_dropped_reports"] = sum(int(r["asi_dropped_reports"]) for r in results)
         batch["policy_versions"] = sorted(versions)
+        lags = [version - int(r["policy_version"]) for r in results]
+        batch["policy_lag"] = max(lags)  # the learner corrects for it (decoupled clipping) when > 0
+        batch["policy_lag_mean"] = float(np.mean(lags))
         batch["worker_indices"] = [int(r["worker_index"]) for r in results]
         return batch
 
@@ -167,6 +175,9 @@ class Trainer:
                               start_phase_spread=config.asi_phase_spread / config.asi_components if config.init == "asi" else 0.0)
             self.runner = make_runner(config, self.worker_class, self.faults)
             self.runner.start(spec)
+            if config.max_policy_lag > 0:
+                self.collector = AsyncCollector(self.runner, config.steps_per_worker, config.max_policy_lag,
+                                                shares_per_batch=config.workers, timeout_s=config.worker_timeout_s)
             self.asi_drift = ASIDrift(asi.client) if config.init == "asi" else None
             metrics = MetricsLog(self.run_dir, resumed_at_samples=self.samples if checkpoint is not None else None)
             try:
@@ -183,6 +194,7 @@ class Trainer:
         self.iteration = int(checkpoint["iteration"])
         self.faults.failures = int(checkpoint.get("worker_failures", 0))
         self.faults.restarts = int(checkpoint.get("worker_restarts", 0))
+        self.faults.ray_restarts = int(checkpoint.get("ray_restarts", 0))
         self.best_eval = checkpoint.get("best_eval")
         dropped = drop_metrics_after(self.run_dir, self.samples)
         if dropped:
@@ -300,7 +312,11 @@ class Trainer:
             "asi_dropped_reports": int(batch["asi_dropped_reports"]),
             "worker_failures": self.faults.failures,
             "worker_restarts": self.faults.restarts,
+            "ray_restarts": self.faults.ray_restarts,
             "policy_version": batch["policy_versions"][0],
+            "policy_lag": int(batch["policy_lag"]),
+            "policy_lag_mean": batch["policy_lag_mean"],
+            "stale_shares": self.collector.stale_shares if self.collector is not None else 0,
             "batch_policy_versions": batch["policy_versions"],
             "batch_worker_indices": batch["worker_indices"],
             "time": time.time(),
@@ -331,6 +347,7 @@ class Trainer:
             "asi_version": int(asi_version),
             "worker_failures": self.faults.failures,
             "worker_restarts": self.faults.restarts,
+            "ray_restarts": self.faults.ray_restarts,
             "config": self.config.to_dict(),
             "best_eval": self.best_eval,
         }
@@ -435,8 +452,11 @@ def _set_torch_threads(config: TrainConfig) -> int:
 
     threads = config.torch_threads
     if threads <= 0:
-        # Sampling and learning take turns (the loop is synchronous and workers block in
-        # sample() between iterations), so the update may use every core of this node.
-        threads = max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
+        # Synchronous loop: sampling and learning take turns (workers block in sample() between
+        # iterations), so the update may use every core of this node. Asynchronous loop: the
+        # workers keep their cores while the learner updates, so it takes what they leave (>= 1).
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        busy = config.workers if config.max_policy_lag > 0 and config.runner != "in_process" else 0
+        threads = max(1, cores - busy)
     torch.set_num_threads(threads)
     return threads

@@ -139,7 +139,7 @@ PRESET_FLAGS = {"preset:reward": "--reward", "preset:setup": "--preset"}  # argp
 # Changing these between a checkpoint and its continuation leaves the learner, its ASI
 # distribution and the env consistent; anything else is refused on --resume.
 SAFE_ON_RESUME = frozenset({
-    "samples", "workers", "envs_per_worker", "runner", "device", "torch_threads", "ray_address",
+    "samples", "workers", "envs_per_worker", "runner", "max_policy_lag", "ppo.max_importance_weight", "device", "torch_threads", "ray_address",
     "asi_address", "asi_host", "redis_url", "asi_tls_ca", "asi_outage_s", "worker_timeout_s", "checkpoint_every",
     "keep_checkpoints", "plot_every", "plot_min_interval_s", "eval_every", "eval_episodes", "curriculum_start_s",
     "curriculum_samples", "asi_episodes_per_update", "asi_step_size", "asi_fall_weighting", "asi_phase_spread", "first_frame_share",

@@ -6,6 +6,12 @@ failing workers and the worker processes seen replaced. Three transports impleme
 (sample-factory's `runner_serial` / `runner_parallel` split): `InProcessRunner` (this
 process, no Ray), `RayRunner` (Ray actors, fault tolerant) and `ProcessRunner` (spawned
 processes over pipes, for hosts without Ray).
+
+Two ways to drive them: `collect` (the synchronous loop: every worker samples with this
+iteration's weights, the driver waits for all) and, for the asynchronous loop
+(`services/training/async_collector.py`), `publish` (the newest weights, put once per version)
+with `submit` (one worker starts a share with the published weights) and `poll` (the shares
+that are done, None for one lost to a failing worker).
 """
 from __future__ import annotations
 
@@ -22,6 +28,7 @@ class WorkerFaults:
 
     failures: int = 0  # batch shares lost to a dead, hung or failing worker and reissued
     restarts: int = 0  # worker processes replaced (Ray: its per-actor restart count; otherwise a new pid)
+    ray_restarts: int = 0  # the local Ray started again after its raylet or GCS died
 
 
 class WorkerRunner(ABC):
@@ -47,6 +54,21 @@ class WorkerRunner(ABC):
         for result in results:
             self._note_pid(int(result["worker_index"]), int(result["worker_pid"]))
         return results
+
+    # ------------------------------------------------------- the asynchronous interface
+    def publish(self, weights: dict, version: int) -> None:
+        """The weights later `submit` calls hand out (Ray: put in the object store once)."""
+        self._published = (weights, version)
+
+    @abstractmethod
+    def submit(self, index: int, steps: int, options: dict) -> None:
+        """Worker `index` starts a share with the published weights; at most one per worker."""
+
+    @abstractmethod
+    def poll(self, timeout: float) -> list[tuple[int, dict | None]]:
+        """(worker index, share) for each submitted share done within `timeout` seconds, at least
+        one unless nothing is pending; a share lost to a dead or hung worker comes back as None
+        (the worker is being restarted and can be submitted to again)."""
 
     def close(self) -> None:
         """Stop the workers this runner started (Ray actors go with the Ray session)."""

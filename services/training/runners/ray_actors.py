@@ -5,7 +5,10 @@ arrays. A worker that dies is restarted by Ray (`max_restarts=-1`); its share of
 handed to a worker that has answered, so an iteration never waits on a dead process. A worker
 that hangs past `worker_timeout_s` is killed (and restarted) the same way. A worker that
 raises SfvError (ASI server gone for longer than `asi_outage_s`, a request the server
-refuses) stops training with that message. docs/faults.md has the measured numbers.
+refuses) stops training with that message. A local Ray that dies under the run (its raylet
+or GCS killed) is started again with fresh workers, and the iteration it interrupted is
+collected again (`ray_restarts`); the driver's learner, ASI server and counters live in the
+driver's process and lose nothing. docs/faults.md has the measured numbers.
 """
 from __future__ import annotations
 
@@ -13,8 +16,14 @@ import time
 import uuid
 
 from learner.errors import SfvError
-from services.ray_session import connect_ray
+from services.ray_session import connect_ray, local_ray_alive, restart_local_ray
 from services.training.runners.base import WorkerRunner, log
+
+MAX_RAY_RESTARTS_PER_ITERATION = 2  # a Ray that dies again at once is not a transient fault
+
+
+class LocalRayDied(Exception):
+    """The local Ray under this run lost its raylet or GCS."""
 
 
 class RayRunner(WorkerRunner):
@@ -23,6 +32,7 @@ class RayRunner(WorkerRunner):
     def start(self, spec) -> None:
         import ray
 
+        self._spec = spec  # kept for a restart of the local Ray
         connect_ray(self.config.ray_address, num_cpus=max(self.config.workers, 1))
         # The spec (the motion, hand-over states: > 100 kB) is held by one small actor this runner
         # owns; a worker's constructor takes only its name and fetches the spec, so a restarted
@@ -36,13 +46,100 @@ class RayRunner(WorkerRunner):
         pids = ray.get([w.pid.remote() for w in self.workers])  # construction errors surface here
         self._pids = dict(enumerate(pids))
         self._restarts_seen = [0] * len(self.workers)  # Ray's own restart count per actor, as last read
+        self._async_pending: dict = {}  # object ref -> worker index (the asynchronous interface)
 
     def _sample(self, weights, version, steps, options):
+        for attempt in range(MAX_RAY_RESTARTS_PER_ITERATION + 1):
+            try:
+                return self._sample_once(weights, version, steps, options)
+            except Exception as exc:  # noqa: BLE001  (whatever Ray raised: only a dead local Ray is handled here)
+                if self.config.ray_address or local_ray_alive():
+                    raise
+                if attempt == MAX_RAY_RESTARTS_PER_ITERATION:
+                    raise SfvError(f"the local Ray died {attempt + 1} times in iteration {version + 1}, giving up "
+                                   f"(last: {_first_line(exc)})") from None
+                self._restart_local_ray(version, exc)
+        raise AssertionError("unreachable")
+
+    def _sample_once(self, weights, version, steps, options):
         import ray
 
+        if not local_ray_alive():
+            raise LocalRayDied("found dead before the iteration")
         results = _Iteration(self, ray.put(weights), version, steps, options).run()
         self._count_restarts()
         return results
+
+    def _restart_local_ray(self, version: int, cause: Exception) -> None:
+        self.faults.ray_restarts += 1
+        log.warning("the local Ray died (%s); starting it again with fresh workers, iteration %d is collected again",
+                    _first_line(cause), version + 1)
+        restart_local_ray(num_cpus=max(self.config.workers, 1))
+        self.start(self._spec)
+        if getattr(self, "_published", None) is not None:  # the old object store went with the old Ray
+            self.publish(*self._published[1:])
+
+    # ------------------------------------------------------- the asynchronous interface
+    def publish(self, weights, version):
+        import ray
+
+        self._published = (ray.put(weights), weights, version)  # one put per version, however many shares use it
+
+    def submit(self, index, steps, options):
+        ref, _, version = self._published
+        self._async_pending[self.workers[index].sample.remote(ref, version, steps, **options)] = index
+
+    def poll(self, timeout):
+        if not self._async_pending:
+            return []
+        try:
+            return self._poll_once(timeout)
+        except Exception as exc:  # noqa: BLE001  (only a dead local Ray is handled here)
+            if self.config.ray_address or local_ray_alive():
+                raise
+            lost = sorted(self._async_pending.values())
+            self._async_pending.clear()
+            self._restart_local_ray(int(self._published[2]), exc)
+            return [(index, None) for index in lost]
+
+    def _poll_once(self, timeout):
+        import ray
+        from ray.exceptions import RayError, RayTaskError
+
+        pending = self._async_pending
+        ready, _ = ray.wait(list(pending), num_returns=1, timeout=timeout)
+        if not ready:  # every outstanding worker hangs: kill them (Ray restarts them)
+            hung = list(pending.items())
+            pending.clear()
+            for ref, index in hung:
+                ray.kill(self.workers[index], no_restart=False)
+                self._lost(index, f"no answer within {timeout:g} s, killed")
+            return [(index, None) for _, index in hung]
+        ready, _ = ray.wait(list(pending), num_returns=len(pending), timeout=0)  # and whatever else is done
+        done = []
+        for ref in ready:
+            index = pending.pop(ref)
+            try:
+                result = ray.get(ref)
+            except RayTaskError as exc:
+                cause = getattr(exc, "cause", None)
+                if isinstance(cause, SfvError):
+                    raise SfvError(f"rollout worker {index}: {cause}") from None
+                self._lost(index, f"{type(cause or exc).__name__}: {str(cause or exc).splitlines()[0][:200]}")
+                result = None
+            except RayError as exc:
+                if not local_ray_alive():
+                    raise LocalRayDied(type(exc).__name__) from None
+                self._lost(index, type(exc).__name__)
+                result = None
+            done.append((index, result))
+        if any(result is None for _, result in done):
+            self._count_restarts()
+        return done
+
+    def _lost(self, index: int, reason: str) -> None:
+        self.faults.failures += 1
+        log.warning("rollout worker %d failed (%s); it is handed a new share", index, reason)
 
     def _note_pid(self, index: int, pid: int) -> None:
         if self._restarts_seen is None:  # no restart counts from Ray: a changed pid is the sign
@@ -170,6 +267,8 @@ class _Iteration:
                 raise SfvError(f"rollout worker {index}: {cause}") from None
             self.lost(index, f"{type(cause or exc).__name__}: {str(cause or exc).splitlines()[0][:200]}")
         except RayError as exc:  # the process died (Ray restarts it) or its result was lost
+            if not local_ray_alive():  # not the worker: the whole local Ray went (the runner restarts it)
+                raise LocalRayDied(type(exc).__name__) from None
             self.lost(index, type(exc).__name__)
         else:
             self.results.append(result)
@@ -178,3 +277,8 @@ class _Iteration:
                 self.submit(index)
             else:
                 self.idle.append(index)
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return f"{type(exc).__name__}: {text.splitlines()[0][:200]}" if text else type(exc).__name__
