@@ -97,7 +97,7 @@ def _finish(args, out: Path, motion_path: Path, run_dir: Path) -> dict:
 
 
 def _summary(report: dict) -> dict:
-    return {key: report[key] for key in ("fell", "fell_at_s", "normalized_return", "files")} | {
+    return {key: report[key] for key in ("outcome", "fell", "fell_at_s", "normalized_return", "files")} | {
         "joint_position_error_m": report["joint_position_error_m"]["mean"],
         "reprojection_error_px": (report["reprojection_error_px"]["simulated"] or {}).get("mean")}
 

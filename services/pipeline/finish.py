@@ -87,4 +87,5 @@ def finish_static_run(out: Path, video: Path, motion_path: Path, run_dir: Path, 
     error, px = report["joint_position_error_m"], report["reprojection_error_px"]["simulated"]
     say(f"report: {out / REPORT_FILE} (normalised return {report['normalized_return']:.3f}, joint error mean "
         f"{error['mean']:.3f} m / max {error['max']:.3f} m, reprojection {px['mean'] if px else float('nan'):.1f} px)")
+    say(report["outcome"])
     return report

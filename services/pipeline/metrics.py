@@ -12,7 +12,12 @@ Every function takes per-frame arrays and returns numbers in SI units (metres, m
   is in contact at both ends (0 for a planted foot; the speed of a sliding one).
 - ground_penetration: per frame, how far (m) the lowest point of the body is below the floor.
 - reprojection_errors: per-frame confidence-weighted mean pixel distance between 3D joints
-  projected through a pinhole camera and the video's 2D keypoints.
+  projected through a pinhole camera and the video's 2D keypoints; a joint less than
+  MIN_DEPTH_M in front of the camera (or behind it) has no image and is not scored
+  (`behind_camera` counts them): a character thrown behind the camera read as 2.0e9 px.
+- aligned_joint_errors: joint_position_errors after one rigid motion (a turn about the vertical
+  and a shift) that best lays the whole simulated path onto the reference's: a controller that
+  walks beside the path, or turned a little at the start, is not read as metres of error.
 """
 from __future__ import annotations
 
@@ -20,6 +25,7 @@ import numpy as np
 
 CONTACT_HEIGHT_M = 0.02  # a foot whose lowest point is this close to the floor is on it
 MIN_CONFIDENCE = 0.3  # 2D keypoints below this confidence are not scored (as drawn)
+MIN_DEPTH_M = 0.1  # a joint nearer the camera's plane than this has no meaningful image
 
 
 def summary(values: np.ndarray) -> dict:
@@ -40,6 +46,20 @@ def joint_position_errors(simulated: np.ndarray, reference: np.ndarray, centre: 
         simulated = simulated - simulated[:, centre].mean(axis=1, keepdims=True)
         reference = reference - reference[:, centre].mean(axis=1, keepdims=True)
     return np.linalg.norm(simulated - reference, axis=-1).mean(axis=1)
+
+
+def aligned_joint_errors(simulated: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(T,) joint_position_errors after the one turn about z and shift (over all frames and
+    joints, least squares: Kabsch in the horizontal plane, mean height) that lays `simulated`
+    on `reference`."""
+    sim, ref = np.asarray(simulated, np.float64), np.asarray(reference, np.float64)
+    a, b = sim.reshape(-1, 3), ref.reshape(-1, 3)
+    ca, cb = a.mean(axis=0), b.mean(axis=0)
+    u, v = a[:, :2] - ca[:2], b[:, :2] - cb[:2]
+    angle = np.arctan2((u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]).sum(), (u * v).sum())
+    turn = np.array([[np.cos(angle), -np.sin(angle), 0.0], [np.sin(angle), np.cos(angle), 0.0], [0.0, 0.0, 1.0]])
+    aligned = (sim - ca) @ turn.T + cb
+    return joint_position_errors(aligned, ref)
 
 
 def box_lowest_z(centre: np.ndarray, rotation: np.ndarray, half_size: np.ndarray) -> np.ndarray:
@@ -79,14 +99,25 @@ def project_points(points: np.ndarray, rotation: np.ndarray, position: np.ndarra
     return cam[..., :2] / np.maximum(cam[..., 2:], 1e-6) * np.diag(intrinsics)[:2] + np.asarray(intrinsics)[:2, 2]
 
 
+def depths(points: np.ndarray, rotation, position) -> np.ndarray:
+    """(...) distance of world points (..., 3) in front of the camera's plane (negative: behind)."""
+    return ((np.asarray(points, np.float64) - position) @ np.asarray(rotation).T)[..., 2]
+
+
+def behind_camera(points: np.ndarray, rotation, position) -> np.ndarray:
+    """(T,) bool: some joint of (T, J, 3) is behind the camera or within MIN_DEPTH_M of its plane."""
+    return (depths(points, rotation, position) < MIN_DEPTH_M).any(axis=-1)
+
+
 def reprojection_errors(points: np.ndarray, keypoints2d: np.ndarray, confidence: np.ndarray, rotation, position,
                         intrinsics, min_confidence: float = MIN_CONFIDENCE) -> np.ndarray:
     """(T,) per-frame confidence-weighted mean distance (px) between (T, J, 3) joints projected
-    through the camera and (T, J, 2) keypoints; keypoints under `min_confidence` do not count
-    (a frame without any: NaN)."""
+    through the camera and (T, J, 2) keypoints; keypoints under `min_confidence` and joints
+    behind the camera (`behind_camera`) do not count (a frame without any: NaN)."""
     pixels = project_points(points, rotation, position, intrinsics)
     distance = np.linalg.norm(pixels - np.asarray(keypoints2d, np.float64), axis=-1)
-    weights = np.where(np.asarray(confidence) >= min_confidence, np.asarray(confidence, np.float64), 0.0)
+    seen = (np.asarray(confidence) >= min_confidence) & (depths(points, rotation, position) >= MIN_DEPTH_M)
+    weights = np.where(seen, np.asarray(confidence, np.float64), 0.0)
     total = weights.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(total > 0, (weights * distance).sum(axis=1) / np.where(total > 0, total, 1.0), np.nan)

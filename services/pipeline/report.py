@@ -2,6 +2,9 @@
 
 Keys (lengths in metres, speeds in m/s, times in seconds, image errors in pixels):
 
+- outcome: one line, `completed: ...` or `fell at T s: first cause found: ...` (`outcome.py`);
+  reference_check: the reconstruction's reference check line (`reconstruction/plausibility.py`).
+
 - fell, fell_at_s (None when upright to the end), diverged: the strict fall rule of `sfv eval`;
   normalized_return: that rule's return over the most the clip could earn.
 - frames, seconds, control_hz: the rollout (one frame per control step, the first frame is the
@@ -9,7 +12,9 @@ Keys (lengths in metres, speeds in m/s, times in seconds, image errors in pixels
 - joint_position_error_m: per frame, the mean distance between the simulated and the
   reconstructed 12 joints (hips, knees, ankles, shoulders, elbows, wrists) in the world, mean /
   max / per_frame; root_relative_joint_error_m the same with each frame's hip midpoint
-  subtracted from both (the pose without the drift of the root).
+  subtracted from both (the pose without the drift of the root); world_aligned_joint_error_m after
+  one turn about the vertical and shift of the whole simulated path (`metrics.aligned_joint_errors`:
+  a controller beside the path is not metres of error).
 - foot_skating_m_s: simulated / reference, the mean horizontal speed of the feet while in
   contact (lowest foot point within `metrics.CONTACT_HEIGHT_M` of the floor at both ends of a
   step); None where no foot stays on the floor.
@@ -18,6 +23,7 @@ Keys (lengths in metres, speeds in m/s, times in seconds, image errors in pixels
 - reprojection_error_px: simulated / reference, the 12 joints projected with the
   reconstruction's camera against the video's 2D keypoints (confidence-weighted mean per
   frame, then mean / max), at the video frame of each control step; None without a camera.
+  Joints behind the camera are not scored; behind_camera_frames counts the frames with one.
 """
 from __future__ import annotations
 
@@ -25,6 +31,7 @@ import numpy as np
 
 from actors.motion.reference_motion import ReferenceMotion
 from services.pipeline import metrics
+from services.pipeline.outcome import outcome_line
 from services.pipeline.rollout import BodyPoints, FirstFrameRollout, body_kinematics
 from services.reconstruction.keypoints import JOINT_KEYPOINTS
 
@@ -60,6 +67,13 @@ def reprojection(points: BodyPoints, reconstruction: ReferenceMotion, times: np.
                                        extras["camera_rotation"], extras["camera_position"], extras["camera_intrinsics"])
 
 
+def _behind(points: BodyPoints, reconstruction: ReferenceMotion) -> int | None:
+    extras = reconstruction.extras
+    if "camera_rotation" not in extras:
+        return None
+    return int(metrics.behind_camera(points.joints, extras["camera_rotation"], extras["camera_position"]).sum())
+
+
 def _nan_summary(values: np.ndarray | None) -> dict | None:
     if values is None:
         return None
@@ -75,8 +89,11 @@ def build_report(rollout: FirstFrameRollout, humanoid, reconstruction: Reference
     times = np.arange(rollout.frames) / hz
     world = metrics.joint_position_errors(sim.joints, ref.joints)
     local = metrics.joint_position_errors(sim.joints, ref.joints, centre=HIPS)
+    aligned = metrics.aligned_joint_errors(sim.joints, ref.joints)
     sim_px, ref_px = reprojection(sim, reconstruction, times), reprojection(ref, reconstruction, times)
     report = {
+        "outcome": outcome_line(rollout, reconstruction, video_rows(reconstruction, times), ref),
+        "reference_check": str(reconstruction.extras.get("reference_check", "")) or None,
         "fell": rollout.fell,
         "fell_at_s": None if rollout.fell_at_s is None else round(rollout.fell_at_s, 3),
         "diverged": rollout.diverged,
@@ -87,7 +104,9 @@ def build_report(rollout: FirstFrameRollout, humanoid, reconstruction: Reference
         "control_hz": hz,
         "joint_position_error_m": {**_rounded(metrics.summary(world), 4), "per_frame": [round(float(v), 4) for v in world]},
         "root_relative_joint_error_m": _rounded(metrics.summary(local), 4),
+        "world_aligned_joint_error_m": _rounded(metrics.summary(aligned), 4),
         "reprojection_error_px": {"simulated": _nan_summary(sim_px), "reference": _nan_summary(ref_px)},
+        "behind_camera_frames": _behind(sim, reconstruction),
     }
     figures = {"simulated": motion_figures(sim, hz), "reference": motion_figures(ref, hz)}
     for key in ("foot_skating_m_s", "ground_penetration_m", "contact_fraction"):

@@ -91,7 +91,8 @@ def test_finishing_writes_the_files_and_a_report_that_adds_up(finished, trained)
     names = {"simulated.npz", "simulated.bvh", "video.mp4", "overlay_strip.png", "report.json"}
     assert names <= {p.name for p in root.iterdir()}
     assert not [p for p in root.iterdir() if p.name.startswith(".")]  # no temp file left behind
-    assert len(lines) == 6  # one result line per file, then the summary as JSON
+    assert len(lines) == 7  # one result line per file, the outcome, then the summary as JSON
+    assert lines[-2] == report["outcome"] and report["outcome"].startswith(("completed: ", "fell at "))
     summary = json.loads(lines[-1])
     assert summary["fell"] == report["fell"] and summary["files"] == report["files"]
     assert all(path in line for path, line in zip(report["files"].values(), lines))

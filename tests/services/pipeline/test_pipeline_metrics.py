@@ -102,3 +102,28 @@ def test_video_rows_map_control_steps_to_the_clip_frames():
     np.testing.assert_array_equal(video_rows(Clip, np.arange(4) / 30.0), [0, 2, 4, 6])
     assert video_rows(Clip, np.array([5.0]))[0] == 99  # past the clip's end: its last frame
 
+
+
+def test_joints_behind_the_camera_are_not_scored_and_are_counted():
+    rotation, position, intrinsics = np.eye(3), np.zeros(3), np.array([[1000.0, 0, 500], [0, 1000.0, 500], [0, 0, 1]])
+    joints = np.array([[[0.0, 0.0, 3.0], [0.1, 0.0, 3.0]], [[0.0, 0.0, 3.0], [0.1, 0.0, -0.5]]])  # frame 1: one behind
+    keypoints = metrics.project_points(joints, rotation, position, intrinsics) + np.array([3.0, 4.0])  # 5 px off
+    confidence = np.ones((2, 2))
+    errors = metrics.reprojection_errors(joints, keypoints, confidence, rotation, position, intrinsics)
+    np.testing.assert_allclose(errors, [5.0, 5.0])  # the joint behind would have been 2e5 px away
+    assert metrics.behind_camera(joints, rotation, position).tolist() == [False, True]
+    joints[1, 0, 2] = 0.05  # both unseen: no figure for that frame
+    assert np.isnan(metrics.reprojection_errors(joints, keypoints, confidence, rotation, position, intrinsics)[1])
+
+
+def test_world_aligned_error_forgives_one_turn_and_shift_of_the_whole_path_but_not_the_pose():
+    rng = np.random.default_rng(1)
+    reference = rng.normal(size=(30, 12, 3))
+    angle = 0.4
+    turn = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+    beside = reference @ turn.T + np.array([2.0, -1.0, 0.05])  # walked beside the path, turned
+    assert metrics.joint_position_errors(beside, reference).mean() > 1.0
+    np.testing.assert_allclose(metrics.aligned_joint_errors(beside, reference), 0.0, atol=1e-9)
+    bent = beside.copy()
+    bent[:, 3] += [0.0, 0.0, 0.3]  # one joint 30 cm off in every frame stays an error
+    assert metrics.aligned_joint_errors(bent, reference).mean() > 0.02
