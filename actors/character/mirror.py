@@ -41,8 +41,7 @@ QUAT = np.array([1.0, -1.0, 1.0, -1.0])  # (w, x, y, z) of S R S
 def mirrored_name(name: str, character: str | None = None) -> str:
     """'walk' -> 'walk_mirror' and back (mirroring twice is the original). With `character`, a
     name ending in `_<character>` (a clip retargeted onto that body) keeps its suffix last, as
-    the retargeting of a mirrored clip names it: 'deepmimic:walk_g1' <-> 'deepmimic:walk_mirror_g1'
-    (what `actors/envs/falls.clip_key` reads back to the clip)."""
+    the retargeting of a mirrored clip names it: 'deepmimic:walk_g1' <-> 'deepmimic:walk_mirror_g1'."""
     body = f"_{character}" if character else ""
     if body and name.endswith(body) and len(name) > len(body):
         return mirrored_name(name[: -len(body)]) + body

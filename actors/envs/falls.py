@@ -2,11 +2,22 @@
 
 DeepMimic ends an episode when any body but the feet touches the ground
 (`--fall_contact_bodies 0 1 2 3 4 6 7 8 9 10 12 13 14` in `args/train_humanoid3d_*_args.txt`:
-every link but the two ankles). Clips whose skill puts other links on the ground list them:
-the cartwheel also allows the hands (wrists), the crawl lets everything but the root, chest
-and neck touch, and the rolls and getups have no fall rule at all. Our earlier rule (root,
-chest and neck only) let a policy drop onto its knees and shoulders and "survive" 18 s lying
-there; this module is the one definition training and evaluation share.
+every link but the two ankles), and lists for some clips the other links their skill puts on the
+ground. Here a clip's rule comes from its own reference (`ground_facts.py`: measured on the
+character's body over one pass of the clip), never from its name:
+- a torso that comes within `LYING_M` of the ground: the skill lies on the ground (rolls,
+  get-ups), so there is no fall rule;
+- else a pelvis that goes below `MIN_ROOT_HEIGHT`: the skill is low (the crawl, on hands and
+  knees), so every link but the torso may touch;
+- else the links that touch the ground (within `CONTACT_M`) in the reference may touch it (the
+  cartwheel's hands), with their left/right partners (so a clip and its mirror image share the
+  rule, and the G1's cartwheel, whose retargeted right hand stays 4 cm clear, keeps both hands),
+  besides the feet.
+On DeepMimic's 15 clips this gives DeepMimic's own lists (tests/actors/envs/test_ground_facts.py);
+a user's cartwheel BVH gets its hands allowed the same way. Measured margins: torsos of the
+lying clips come within 0.03 m (get-up face down) or touch; the crawl's stays 0.09 m clear, the
+others' >= 0.3 m. Hands touch in the cartwheel (0.00 m); the closest other non-foot link of an
+upright clip is the run's shin at 0.02 m.
 
 `StrictFall` adds a root-height floor on top of the contacts (`MIN_ROOT_HEIGHT`): a
 character whose pelvis is below it is down whatever touches the floor. Evaluation always
@@ -17,71 +28,51 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from actors.character.characters import CHARACTER_NAMES
 from actors.character.humanoid3d import HUMANOID3D
+from actors.envs.ground_facts import GroundFacts, track_ground_facts
 
-# Links that may touch the ground beyond the character's feet (every clip allows those), per
-# DeepMimic clip (from its train args), by role so that every body reads them: "hands" are the
-# end effectors that are not feet (humanoid3d's wrists, the G1's wrist-yaw links); the crawl's
-# are every link but the torso and head.
-_EXTRA_ALLOWED: dict[str, str] = {"cartwheel": "hands"}
-_ALL_BUT_TORSO_CLIPS = ("crawl",)
-# Clips DeepMimic trains with no fall rule (the skill is on the ground).
-NO_FALL_CLIPS = ("roll", "getup_facedown", "getup_faceup")
 # Pelvis height (m) below which the character counts as down in evaluation. Standing, the
 # root is at 0.89 m, at the bottom of a walk or run step ~0.8 m, at the lowest point of the
 # backflip's crouch and the cartwheel ~0.45 m; kneeling puts it at ~0.5 m, but knees on the
-# floor are already a contact fall. 0.3 m is a character sitting or lying.
+# floor are already a contact fall. 0.3 m is a character sitting or lying. A clip whose own
+# pelvis goes lower (the crawl's: 0.17-0.40 m) has no floor: it would call every crawl a fall.
 MIN_ROOT_HEIGHT = 0.3
-# Clips whose pelvis belongs below that floor: the crawl's reference pelvis is 0.17-0.40 m
-# high (on hands and knees), so the floor would call every crawl a fall in its first steps
-# (measured: strict evaluation NR .01, episodes of 0.25 s, for a policy whose training
-# episodes of the same states ran 20 s without a contact fall). Their contact rule stays.
-LOW_CLIPS = ("crawl",)
+CONTACT_M = 0.01  # a link whose lowest point comes this close to the ground in the reference touches it
+LYING_M = 0.05  # a torso this close to the ground in the reference: the skill lies on the ground
 
 
-def clip_key(motion_name: str) -> str:
-    """'deepmimic:cartwheel', 'humanoid3d_cartwheel' or a path's stem -> 'cartwheel'; a
-    mirrored clip ('cartwheel_mirror') has its original's rule (the allowed links come in
-    left/right pairs, so the rule is its own mirror image), and so has a clip retargeted onto
-    a robot ('deepmimic:cartwheel_g1', `actors/motion/robot_retarget.py` names it so)."""
-    name = motion_name.rsplit("/", 1)[-1].split(":", 1)[-1]
-    name = name.rsplit(".", 1)[0] if name.endswith((".txt", ".json", ".npz")) else name
-    for character in CHARACTER_NAMES:
-        name = name.removesuffix("_" + character)
-    return name.removeprefix("humanoid3d_").removesuffix("_mirror")
+def lies_on_the_ground(facts: GroundFacts) -> bool:
+    return facts.torso_clearance_m <= LYING_M
 
 
-def _role_links(role: str, character) -> tuple[str, ...]:
-    """The character's links of a role of `_EXTRA_ALLOWED`."""
-    if role == "hands":
-        return tuple(character.link_names[i] for i in character.end_effector_links if character.link_names[i] not in character.feet)
-    raise ValueError(f"internal: no link role {role!r}")
+def goes_low(facts: GroundFacts) -> bool:
+    return facts.lowest_root_m < MIN_ROOT_HEIGHT
 
 
-def allowed_contact_links(motion_name: str, override: tuple[str, ...] | None = None, character=HUMANOID3D) -> tuple[str, ...]:
-    """Names of the character's links that may touch the ground without a fall, for this clip.
+def allowed_contact_links(facts: GroundFacts, override: tuple[str, ...] | None = None, character=HUMANOID3D) -> tuple[str, ...]:
+    """Names of the character's links that may touch the ground without a fall, for a clip with these facts.
 
-    `override` (EnvConfig.ground_contact_links) replaces the clip's table entry; the feet
-    are always allowed. A clip with no fall rule allows every link."""
-    key, names = clip_key(motion_name), character.link_names
+    `override` (EnvConfig.ground_contact_links) replaces the clip's own allowance; the feet
+    are always allowed. A clip that lies on the ground allows every link."""
+    names = character.link_names
     if override is not None:
         unknown = [n for n in override if n not in names]
         if unknown:
             raise ValueError(f"ground contact links {unknown} are not links of the {character.name} ({', '.join(names)})")
         extra = tuple(override)
-    elif key in NO_FALL_CLIPS:
+    elif lies_on_the_ground(facts):
         extra = names
-    elif key in _ALL_BUT_TORSO_CLIPS:
+    elif goes_low(facts):
         extra = tuple(n for i, n in enumerate(names) if i not in character.torso_links)
     else:
-        extra = _role_links(_EXTRA_ALLOWED[key], character) if key in _EXTRA_ALLOWED else ()
+        touching = set(facts.links_within(CONTACT_M))
+        extra = tuple(names[i] for i in sorted(touching | {int(character.link_mirror[i]) for i in touching}))
     return tuple(n for n in names if n in character.feet or n in extra)
 
 
-def fall_contact_links(motion_name: str, override: tuple[str, ...] | None = None, character=HUMANOID3D) -> np.ndarray:
+def fall_contact_links(facts: GroundFacts, override: tuple[str, ...] | None = None, character=HUMANOID3D) -> np.ndarray:
     """Link indices of the character's links whose ground contact is a fall."""
-    allowed = set(allowed_contact_links(motion_name, override, character))
+    allowed = set(allowed_contact_links(facts, override, character))
     return np.array([i for i, name in enumerate(character.link_names) if name not in allowed], dtype=np.int64)
 
 
@@ -127,10 +118,16 @@ class FallDetector:
         return bool(self.mask[data.contact.geom].any())
 
     @classmethod
-    def for_clip(cls, humanoid, motion_name: str, override: tuple[str, ...] | None = None, strict: bool = False) -> "FallDetector":
-        """The clip's contact rule; `strict` adds the root-height floor (evaluation), except
-        for clips that are meant to be on the ground or low (`LOW_CLIPS`)."""
-        key = clip_key(motion_name)
-        no_floor = key in LOW_CLIPS or (override is None and key in NO_FALL_CLIPS)
+    def for_facts(cls, humanoid, facts: GroundFacts, override: tuple[str, ...] | None = None,
+                  strict: bool = False) -> "FallDetector":
+        """The contact rule of a clip with these facts; `strict` adds the root-height floor
+        (evaluation), except for clips that go low (without an override, lying ones too)."""
+        lying = lies_on_the_ground(facts)
+        no_floor = (goes_low(facts) and not lying) or (override is None and lying)
         height = MIN_ROOT_HEIGHT if strict and not no_floor else None
-        return cls(humanoid, fall_contact_links(motion_name, override, humanoid.character), height)
+        return cls(humanoid, fall_contact_links(facts, override, humanoid.character), height)
+
+    @classmethod
+    def for_track(cls, humanoid, track, override: tuple[str, ...] | None = None, strict: bool = False) -> "FallDetector":
+        """The rule of the clip a reference track plays (its facts measured on `humanoid`)."""
+        return cls.for_facts(humanoid, track_ground_facts(humanoid, track), override, strict)

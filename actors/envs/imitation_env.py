@@ -184,7 +184,7 @@ class ImitationEnv(CoreParts, gym.Env):
         self._fixed_scene: np.ndarray | None = None
         self.scene_reward = None if self.scene is None else SceneReward.for_track(self.track, self.scene, self.arena.frame)
         self.scene_limbs = self.humanoid.body_ids[SCENE_LIMB_LINKS] - 1 if self.scene is not None else None  # rows of FeatureExtractor.pos
-        self.fall_detector = FallDetector.for_clip(self.humanoid, motion.name, config.ground_contact_links)
+        self.fall_detector = FallDetector.for_track(self.humanoid, self.track, config.ground_contact_links)
         self._start = 0
         self._step = 0
         self._max_steps = 1

@@ -31,7 +31,7 @@ from services.training.run_dir import write_json_atomic  # noqa: E402
 
 def rollout_stats(env: ImitationEnv, starts, policy, seconds: float) -> dict:
     """starts: list of (phase, state or None). Mean reward per step and strict fall rate."""
-    fall = FallDetector.for_clip(env.humanoid, env.motion.name, env.config.ground_contact_links, strict=True)
+    fall = FallDetector.for_track(env.humanoid, env.track, env.config.ground_contact_links, strict=True)
     steps = int(round(seconds * env.config.control_hz))
     rewards, falls = [], 0
     zero = np.zeros(env.action_space.shape[0], np.float32)

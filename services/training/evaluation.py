@@ -9,7 +9,7 @@ clips, the clip's end otherwise) unless the character falls or the simulation di
 Falls. Whatever the environment's own termination setting (training may run with early
 termination off, or with a looser rule), the environment is stepped with early termination
 off and the clip's *strict* fall rule is checked after every control step
-(`FallDetector.for_clip(..., strict=True)`: DeepMimic's contact rule, every link but the feet
+(`FallDetector.for_track(..., strict=True)`: DeepMimic's contact rule, every link but the feet
 and the links the clip allows such as the cartwheel's hands, plus a pelvis-height floor of
 `actors.envs.falls.MIN_ROOT_HEIGHT`). A strict fall ends the episode (its step earns 0 when the
 env's `zero_reward_on_fall` is set); a divergence (MuJoCo reset its state) ends it as a fall.
@@ -93,7 +93,7 @@ def weak_starts(start_returns: list, fraction: float = 0.5) -> tuple[float | Non
 
 def strict_fall_detector(env: ImitationEnv) -> FallDetector:
     """The clip's strict fall rule (contacts + pelvis floor) for this env's humanoid."""
-    return FallDetector.for_clip(env.humanoid, env.motion.name, env.config.ground_contact_links, strict=True)
+    return FallDetector.for_track(env.humanoid, env.track, env.config.ground_contact_links, strict=True)
 
 
 def _push_config(pushes: int, push_impulse: float | None, push_duration_s: float | None):

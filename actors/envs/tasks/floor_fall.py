@@ -18,11 +18,13 @@ from __future__ import annotations
 import mujoco
 
 from actors.envs.falls import MIN_ROOT_HEIGHT, FallDetector, body_geom_mask, fall_contact_links
+from actors.envs.ground_facts import GroundFacts
 
 
 class FloorFall(FallDetector):
     def __init__(self, humanoid):
-        super().__init__(humanoid, fall_contact_links("walk", character=humanoid.character), MIN_ROOT_HEIGHT)  # the feet may touch, nothing else
+        upright = GroundFacts.upright(humanoid.character)  # the feet may touch, nothing else
+        super().__init__(humanoid, fall_contact_links(upright, character=humanoid.character), MIN_ROOT_HEIGHT)
         model = humanoid.model
         self.floor = humanoid.floor_geom_id
         self.trunk = body_geom_mask(model, humanoid.body_ids[humanoid.character.torso_links])

@@ -111,10 +111,15 @@ def test_g1_reward_is_one_when_it_plays_its_reference(g1_env):
 @needs_g1
 def test_g1_falls_are_its_own_links_on_the_ground(g1_env):
     from actors.envs.falls import allowed_contact_links
+    from actors.envs.ground_facts import track_ground_facts
+    from tests.conftest import load_clip
 
     g1 = character_named("g1")
-    assert allowed_contact_links(g1_env.motion.name, character=g1) == ("left_ankle_roll_link", "right_ankle_roll_link")
-    assert allowed_contact_links("deepmimic:cartwheel_g1", character=g1) == (
+    walk = track_ground_facts(g1_env.humanoid, g1_env.track)
+    assert allowed_contact_links(walk, character=g1) == ("left_ankle_roll_link", "right_ankle_roll_link")
+    cartwheel_env = ImitationEnv(load_clip("cartwheel"), EnvConfig(character="g1"), g1_env.humanoid)  # retargeted at load
+    cartwheel = track_ground_facts(g1_env.humanoid, cartwheel_env.track)
+    assert allowed_contact_links(cartwheel, character=g1) == (
         "left_ankle_roll_link", "right_ankle_roll_link", "left_wrist_yaw_link", "right_wrist_yaw_link")
     env = g1_env
     env.reset(options={"init": "fsi"})

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from actors.character import quaternion as qn
-from actors.envs.falls import MIN_ROOT_HEIGHT, FallDetector, allowed_contact_links, clip_key, fall_contact_links
+from actors.envs.falls import MIN_ROOT_HEIGHT, FallDetector, allowed_contact_links, fall_contact_links
+from actors.envs.ground_facts import track_ground_facts
 from actors.envs.modes.sfv.config import SfvConfig
 from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.character.skeleton import JOINT_NAMES, LINK_NAMES
@@ -22,6 +23,13 @@ FEET = {"right_ankle", "left_ankle"}
 @pytest.fixture(scope="module")
 def humanoid(shared_humanoid):
     return shared_humanoid
+
+
+@pytest.fixture(scope="module")
+def facts(humanoid):
+    """Each clip's ground facts, measured on its reference (what its fall rule reads)."""
+    names = ("walk", "cartwheel", "backflip", "crawl", "roll", "getup_facedown", "getup_faceup")
+    return {name: track_ground_facts(humanoid, ImitationEnv(load_clip(name), EnvConfig(), humanoid).track) for name in names}
 
 
 @pytest.fixture(scope="module")
@@ -83,85 +91,71 @@ def head_down(humanoid):
 
 
 # ------------------------------------------------------------------ the detector
-def test_standing_on_the_feet_is_no_fall(humanoid):
+def test_standing_on_the_feet_is_no_fall(humanoid, facts):
     data = on_the_floor(humanoid, lambda qpos: None)
     assert touching(humanoid, data) == FEET
-    for clip in ("deepmimic:walk", "deepmimic:cartwheel", "deepmimic:backflip"):
-        assert not FallDetector.for_clip(humanoid, clip)(data)
+    for clip in ("walk", "cartwheel", "backflip"):
+        assert not FallDetector.for_facts(humanoid, facts[clip])(data)
 
 
-def test_kneeling_is_a_fall_for_walk(humanoid):
+def test_kneeling_is_a_fall_for_walk(humanoid, facts):
     data = on_the_floor(humanoid, kneeling(humanoid))
     assert touching(humanoid, data) == FEET | {"right_knee", "left_knee"}  # the shins (knee links) lie on the floor
-    assert FallDetector.for_clip(humanoid, "deepmimic:walk")(data)
-    assert FallDetector.for_clip(humanoid, "deepmimic:cartwheel")(data)  # hands only, not knees
+    assert FallDetector.for_facts(humanoid, facts["walk"])(data)
+    assert FallDetector.for_facts(humanoid, facts["cartwheel"])(data)  # hands only, not knees
     # Allowing the knees makes it a legal contact; the feet need not be listed.
-    assert not FallDetector.for_clip(humanoid, "deepmimic:walk", ("right_knee", "left_knee"))(data)
-    assert FallDetector.for_clip(humanoid, "deepmimic:walk", ("right_knee",))(data)
+    assert not FallDetector.for_facts(humanoid, facts["walk"], ("right_knee", "left_knee"))(data)
+    assert FallDetector.for_facts(humanoid, facts["walk"], ("right_knee",))(data)
 
 
-def test_a_hand_on_the_floor_is_no_fall_for_cartwheel_but_is_for_walk(humanoid):
+def test_a_hand_on_the_floor_is_no_fall_for_cartwheel_but_is_for_walk(humanoid, facts):
     data = on_the_floor(humanoid, handstand(humanoid))
     assert touching(humanoid, data) == {"right_wrist", "left_wrist"}
-    assert not FallDetector.for_clip(humanoid, "deepmimic:cartwheel")(data)
-    assert not FallDetector.for_clip(humanoid, "humanoid3d_cartwheel")(data)  # the file's name
-    assert FallDetector.for_clip(humanoid, "deepmimic:walk")(data)
+    assert not FallDetector.for_facts(humanoid, facts["cartwheel"])(data)
+    assert FallDetector.for_facts(humanoid, facts["walk"])(data)
     # An override replaces the clip's allowance: () is feet only, even for the cartwheel.
-    assert FallDetector.for_clip(humanoid, "deepmimic:cartwheel", ())(data)
+    assert FallDetector.for_facts(humanoid, facts["cartwheel"], ())(data)
 
 
-def test_the_head_down_is_a_fall_except_for_clips_on_the_ground(humanoid):
+def test_the_head_down_is_a_fall_except_for_clips_on_the_ground(humanoid, facts):
     data = on_the_floor(humanoid, head_down(humanoid))
     assert "neck" in touching(humanoid, data)
-    for clip in ("deepmimic:walk", "deepmimic:cartwheel", "deepmimic:crawl"):
-        assert FallDetector.for_clip(humanoid, clip)(data), clip
-    for clip in ("deepmimic:roll", "deepmimic:getup_facedown", "deepmimic:getup_faceup"):
-        assert not FallDetector.for_clip(humanoid, clip)(data), clip
-        assert fall_contact_links(clip).size == 0
+    for clip in ("walk", "cartwheel", "crawl"):
+        assert FallDetector.for_facts(humanoid, facts[clip])(data), clip
+    for clip in ("roll", "getup_facedown", "getup_faceup"):
+        assert not FallDetector.for_facts(humanoid, facts[clip])(data), clip
+        assert fall_contact_links(facts[clip]).size == 0
     # An explicit override gives a no-rule clip a rule.
-    assert FallDetector.for_clip(humanoid, "deepmimic:roll", ())(data)
+    assert FallDetector.for_facts(humanoid, facts["roll"], ())(data)
 
 
-def test_allowed_links_per_clip():
-    assert set(allowed_contact_links("deepmimic:walk")) == FEET
-    assert set(allowed_contact_links("deepmimic:backflip")) == FEET
-    assert set(allowed_contact_links("deepmimic:cartwheel")) == FEET | {"right_wrist", "left_wrist"}
-    assert set(allowed_contact_links("deepmimic:crawl")) == set(LINK_NAMES) - {"root", "chest", "neck"}
-    assert set(allowed_contact_links("deepmimic:roll")) == set(LINK_NAMES)
+def test_allowed_links_per_clip(facts):
+    assert set(allowed_contact_links(facts["walk"])) == FEET
+    assert set(allowed_contact_links(facts["backflip"])) == FEET
+    assert set(allowed_contact_links(facts["cartwheel"])) == FEET | {"right_wrist", "left_wrist"}
+    assert set(allowed_contact_links(facts["crawl"])) == set(LINK_NAMES) - {"root", "chest", "neck"}
+    assert set(allowed_contact_links(facts["roll"])) == set(LINK_NAMES)
     # The fall links are the rest, as skeleton indices.
-    assert [LINK_NAMES[i] for i in fall_contact_links("deepmimic:walk")] == [n for n in LINK_NAMES if n not in FEET]
+    assert [LINK_NAMES[i] for i in fall_contact_links(facts["walk"])] == [n for n in LINK_NAMES if n not in FEET]
 
 
-@pytest.mark.parametrize("name, key", [
-    ("deepmimic:cartwheel", "cartwheel"),
-    ("humanoid3d_cartwheel", "cartwheel"),
-    ("/data/motions/humanoid3d_cartwheel.txt", "cartwheel"),
-    ("runs/x/getup_facedown.npz", "getup_facedown"),
-    ("clips/backflip.json", "backflip"),
-    ("walk", "walk"),
-    ("deepmimic:roll", "roll"),
-])
-def test_clip_key(name, key):
-    assert clip_key(name) == key
-
-
-def test_an_unknown_link_name_is_an_error():
+def test_an_unknown_link_name_is_an_error(facts):
     with pytest.raises(ValueError, match="right_hand"):
-        allowed_contact_links("deepmimic:walk", ("right_hand",))
+        allowed_contact_links(facts["walk"], ("right_hand",))
     with pytest.raises(ValueError, match="tail"):
-        fall_contact_links("deepmimic:cartwheel", ("left_wrist", "tail"))
+        fall_contact_links(facts["cartwheel"], ("left_wrist", "tail"))
 
 
-def test_strict_detector_adds_a_root_height_floor(humanoid):
+def test_strict_detector_adds_a_root_height_floor(humanoid, facts):
     data = mujoco.MjData(humanoid.model)  # no contacts computed: only the height can tell
     data.qpos[2] = 0.25
     assert data.ncon == 0
-    assert FallDetector.for_clip(humanoid, "deepmimic:walk", strict=True)(data)
-    assert not FallDetector.for_clip(humanoid, "deepmimic:walk")(data)
-    assert not FallDetector.for_clip(humanoid, "deepmimic:roll", strict=True)(data)  # meant to be low
-    assert not FallDetector.for_clip(humanoid, "deepmimic:crawl", strict=True)(data)  # on hands and knees
+    assert FallDetector.for_facts(humanoid, facts["walk"], strict=True)(data)
+    assert not FallDetector.for_facts(humanoid, facts["walk"])(data)
+    assert not FallDetector.for_facts(humanoid, facts["roll"], strict=True)(data)  # meant to be low
+    assert not FallDetector.for_facts(humanoid, facts["crawl"], strict=True)(data)  # on hands and knees
     data.qpos[2] = 0.5
-    assert not FallDetector.for_clip(humanoid, "deepmimic:walk", strict=True)(data)
+    assert not FallDetector.for_facts(humanoid, facts["walk"], strict=True)(data)
 
 
 # ------------------------------------------------------------------------ the env
@@ -226,7 +220,7 @@ def test_the_crawl_reference_is_no_strict_fall_anywhere_in_its_clip(humanoid):
     """Every frame of the crawl's own reference, posed with its contacts, passes the strict rule
     (its pelvis goes down to 0.17 m); a chest on the floor still fails it."""
     env = ImitationEnv(load_clip("crawl"), EnvConfig())
-    strict = FallDetector.for_clip(env.humanoid, "deepmimic:crawl", strict=True)
+    strict = FallDetector.for_track(env.humanoid, env.track, strict=True)
     low = []
     for row in range(0, env.track.qpos.shape[0] // 10, 2):
         env.set_reference_state(row)
