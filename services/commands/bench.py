@@ -16,6 +16,7 @@ HELP = "throughput benchmarks: physics bound, env, worker, learner, training, pe
 def register(subparsers: argparse._SubParsersAction) -> None:
     from services.bench.config import SUITES, BenchConfig
     from services.bench.learning_suite import add_arguments as add_learning_arguments
+    from services.bench.videos_suite import add_arguments as add_videos_arguments
 
     defaults = BenchConfig()
     p = subparsers.add_parser("bench", help=HELP)
@@ -36,6 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of random actions, policy init and learner data")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     add_learning_arguments(p)
+    add_videos_arguments(p)
     p.set_defaults(handler=run_bench)
 
 
@@ -86,6 +88,12 @@ def run_bench(args) -> int:
         if names != {"learning"}:
             raise SfvError(f"--suite {args.suite!r}: the learning suite runs on its own (it trains for hours and writes OUT_DIR/learning.json)")
         return run_learning_command(args)
+    if "videos" in names:
+        from services.bench.videos_suite import run_videos_command
+
+        if names != {"videos"}:
+            raise SfvError(f"--suite {args.suite!r}: the videos suite runs on its own (a pipeline run per video)")
+        return run_videos_command(args)
     given = [name for name in LEARNING_FLAGS if getattr(args, name, None) is not None]
     if given:
         raise SfvError(f"--{given[0].replace('_', '-')} belongs to --suite learning, not --suite {args.suite}")

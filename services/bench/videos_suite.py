@@ -1,0 +1,185 @@
+"""Suite `videos`: `sfv pipeline` with its defaults over a set of real videos, one row per video.
+
+    sfv bench --suite videos [--videos PATH[,PATH...]] [--runs-dir DIR] --out bench/results/videos.json
+
+PATH is a video or a folder of videos (default: every camera of ../shared's Pose2Sim trials). Each
+video runs as a user runs it, `sfv pipeline VIDEO --out RUNS/<folder>_<video>` in its own
+process (pose, reconstruction, 2 M samples, the controller from the first frame); a run directory
+that already holds report.json is measured as it is, one with a finished training only finished
+(`--finish-only`), so an interrupted suite resumes. Per video:
+
+- the licence (the first line of a LICENSE file beside the video; "unknown" without one);
+- the subject: frames of the video it covers, person id and the pipeline's one-line reason;
+  the reference check's line;
+- reconstruction quality: reference reprojection error (px), foot skating (m/s) and ground
+  penetration (m) of the reference and of the simulation (report.json);
+- ground truth where a Pose2Sim `.trc` lies beside the video (the one whose markers project
+  nearest the subject's 2D keypoints through `Calib_qualisys.toml`: which person was followed):
+  PA-MPJPE, MPJPE after one similarity and acceleration error (mm) of the kinematic reference and
+  of the simulated motion against the 12 triangulated joints, on the controller's 30 Hz grid;
+- the controller: outcome line, fall and when, NR from the first frame, minutes of the run;
+- the frame strip: the run's overlay_strip.png copied beside the results as `<out>_<name>.png`.
+"""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from learner.atomic_io import atomic_write_json
+from learner.errors import SfvError
+
+REPO = Path(__file__).resolve().parents[2]
+SHARED_VIDEOS = REPO.parent / "shared" / "data" / "video"
+DEFAULT_FOLDERS = ("pose2sim_two_people", "pose2sim_balancing")
+VIDEO_SUFFIXES = {".mp4", ".avi", ".mov", ".mkv", ".webm"}
+MINUTES_FILE = "bench_minutes.json"  # the run's own wall time, kept beside it for a resumed suite
+
+
+def find_videos(paths: list[Path]) -> list[Path]:
+    """Videos of `paths` (files, or folders: their videos sorted by name); a one-line error for a
+    path that is neither."""
+    found = []
+    for path in paths:
+        if path.is_dir():
+            found += sorted(p for p in path.iterdir() if p.suffix.lower() in VIDEO_SUFFIXES)
+        elif path.is_file() and path.suffix.lower() in VIDEO_SUFFIXES:
+            found.append(path)
+        else:
+            raise SfvError(f"--videos {path}: not a video file or a folder of videos")
+    if not found:
+        raise SfvError(f"--videos {','.join(map(str, paths))}: no video found")
+    return found
+
+
+def default_video_paths() -> list[Path]:
+    return [SHARED_VIDEOS / name for name in DEFAULT_FOLDERS if (SHARED_VIDEOS / name).is_dir()]
+
+
+def licence(video: Path) -> str:
+    path = video.parent / "LICENSE"
+    if not path.is_file():
+        return "unknown (no LICENSE beside the video)"
+    lines = [line.strip() for line in path.read_text(errors="replace").splitlines() if line.strip()]
+    return lines[0] if lines else "unknown (empty LICENSE)"
+
+
+def run_name(video: Path) -> str:
+    return f"{video.parent.name}_{video.stem}"
+
+
+def run_pipeline(video: Path, out: Path, log) -> float:
+    """Minutes of `sfv pipeline` on `video` into `out` (resumed or reused, see the module docstring)."""
+    if (out / "report.json").is_file() and (out / MINUTES_FILE).is_file():
+        return json.loads((out / MINUTES_FILE).read_text())["minutes"]
+    command = [sys.executable, "-m", "services.cli", "pipeline", str(video), "--out", str(out), "--quiet"]
+    if (out / "motion.npz").is_file() and (out / "train" / "config.json").is_file():
+        command.append("--finish-only")
+    log(" ".join(command))
+    started = time.perf_counter()
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "pipeline_stdout.txt", "a") as stdout:
+        done = subprocess.run(command, cwd=REPO, stdout=stdout, stderr=subprocess.STDOUT)
+    if done.returncode != 0:
+        raise SfvError(f"{video}: sfv pipeline failed (exit {done.returncode}); see {out}/pipeline_stdout.txt")
+    minutes = round((time.perf_counter() - started) / 60.0, 1)
+    if "--finish-only" not in command:
+        atomic_write_json(out / MINUTES_FILE, {"minutes": minutes})
+    return minutes
+
+
+def subject_line(out: Path) -> str | None:
+    path = out / "pipeline_stdout.txt"
+    lines = path.read_text().splitlines() if path.is_file() else []
+    return next((line for line in lines if line.startswith("subject: ")), None)
+
+
+def video_row(video: Path, out: Path, minutes: float, strip: Path) -> dict:
+    from actors.motion.formats.io import load_motion
+    from services.bench.videos_truth import truth_errors
+
+    report = json.loads((out / "report.json").read_text())
+    motion = load_motion(str(out / "motion.npz"))
+    simulated = load_motion(str(out / "simulated.npz"))
+    start = int(motion.extras.get("video_start_frame", 0))
+    shutil.copyfile(out / "overlay_strip.png", strip)
+    return {
+        "video": str(video), "licence": licence(video), "run": str(out), "minutes": minutes,
+        "subject": {"person": int(motion.extras.get("person_id", 0)), "frames": [start, start + motion.num_frames - 1],
+                    "line": subject_line(out)},
+        "reference_check": report.get("reference_check"),
+        "reprojection_px": {k: (v or {}).get("mean") for k, v in report["reprojection_error_px"].items()},
+        "foot_skating_m_s": report["foot_skating_m_s"],
+        "penetration_max_m": {k: v["max"] for k, v in report["ground_penetration_m"].items()},
+        "ground_truth": truth_errors(video, report, motion, simulated),
+        "outcome": report.get("outcome"), "fell": report["fell"], "fell_at_s": report["fell_at_s"],
+        "normalized_return": report["normalized_return"],
+        "root_relative_joint_error_m": report["root_relative_joint_error_m"]["mean"],
+        "world_aligned_joint_error_m": (report.get("world_aligned_joint_error_m") or {}).get("mean"),
+        "strip": str(strip),
+    }
+
+
+def markdown(rows: list[dict]) -> str:
+    lines = ["| video | subject frames | reprojection px ref / sim | skating m/s ref / sim | penetration cm sim | "
+             "PA-MPJPE mm kin / sim | from the first frame | NR | minutes |", "|---|---|---|---|---|---|---|---:|---:|"]
+    for r in rows:
+        gt = r["ground_truth"]
+        pa = "-" if gt is None else f"{gt['kinematic']['pa_mpjpe_mm']:.0f} / {gt['simulated']['pa_mpjpe_mm']:.0f}"
+        px, skate = r["reprojection_px"], r["foot_skating_m_s"]
+        lines.append(f"| {Path(r['run']).name} | {r['subject']['frames'][0]}-{r['subject']['frames'][1]} "
+                     f"(person {r['subject']['person']}) | {_num(px['reference'])} / {_num(px['simulated'])} | "
+                     f"{_num(skate['reference'], 2)} / {_num(skate['simulated'], 2)} | "
+                     f"{_num(100 * r['penetration_max_m']['simulated'])} | {pa} | "
+                     f"{'fell at %.2f s' % r['fell_at_s'] if r['fell'] else 'completed'} | "
+                     f"{r['normalized_return']:.3f} | {r['minutes']:.1f} |")
+    return "\n".join(lines)
+
+
+def _num(value, digits: int = 1) -> str:
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+def run_videos_suite(videos: list[Path], runs_dir: Path, out: Path, log) -> dict:
+    """Every video's row, written to `out` after each video (atomically), so a stopped suite
+    keeps what it measured."""
+    rows = []
+    document = {"suite": "videos", "runs_dir": str(runs_dir), "rows": rows}
+    for video in videos:
+        run = runs_dir / run_name(video)
+        minutes = run_pipeline(video, run, log)
+        rows.append(video_row(video, run, minutes, out.with_name(f"{out.stem}_{run_name(video)}.png")))
+        document["completed"] = sum(not r["fell"] for r in rows)
+        atomic_write_json(out, document)
+        log(f"{run_name(video)}: {rows[-1]['outcome']}")
+    return document
+
+
+def run_videos_command(args) -> int:
+    """`sfv bench --suite videos`: the flags' checks, then the suite and its table."""
+    if args.out is None or args.out.suffix != ".json":
+        raise SfvError("--suite videos needs --out FILE.json (e.g. bench/results/videos.json)")
+    if not args.out.parent.is_dir():
+        raise SfvError(f"{args.out}: directory {args.out.parent} does not exist")
+    paths = [Path(p) for p in args.videos.split(",")] if args.videos else default_video_paths()
+    if not paths:
+        raise SfvError(f"--videos not given and {SHARED_VIDEOS} has no Pose2Sim trial")
+    videos = find_videos(paths)
+    log = (lambda message: None) if args.quiet else (lambda message: print(message, file=sys.stderr, flush=True))
+    document = run_videos_suite(videos, Path(args.runs_dir), args.out, log)
+    print(markdown(document["rows"]))
+    print(f"\nwritten to {args.out}")
+    return 0
+
+
+def add_arguments(parser) -> None:
+    g = parser.add_argument_group("videos suite (sfv bench --suite videos --out FILE.json: sfv pipeline over real videos)")
+    g.add_argument("--videos", default=None, metavar="PATH[,PATH]",
+                   help="videos or folders of videos (default: the cameras of ../shared's Pose2Sim trials)")
+    g.add_argument("--runs-dir", default="bench/videos_runs",
+                   help="one sfv pipeline output directory per video goes here; a finished one is measured as it is")
