@@ -5,8 +5,7 @@ Slopes, gaps (trenches TRENCH_DEPTH deep), steps, rough ground and their mix are
 ground geom for the fall rule and the feet, one list of contact pairs, and a height query is
 a lookup into the grid (`actors/arenas/height_lookup.py`). The field covers the clip's root
 path over the episode horizon (cycles of a looped clip laid end to end) plus margins, in the
-frame of the clip's first frame (`SceneFrame`), at CELL_M: a 15 cm step is then a 72 degree
-ramp one cell long. The compiled model's field is a template; every env owns a copy of the
+frame of the clip's first frame (`SceneFrame`), CELL_M apart. The compiled model's field is a template; every env owns a copy of the
 model and writes fresh heights into it per episode (`write(model, heights)`), never recompiling.
 """
 from __future__ import annotations
@@ -21,7 +20,11 @@ import numpy as np
 from actors.arenas.scene import SceneFrame
 from actors.arenas.terrain_generators import MAX_HEIGHT, TERRAIN_KINDS, TRENCH_DEPTH, TerrainGrid, check_terrain
 
-CELL_M = 0.05
+# The field's spacing: MuJoCo collides a geom with every cell under it, two prisms a cell. Physics
+# per control step (walk, 300 Hz, one env, nice'd): 0.30 ms on the plane, 0.49 ms on a 10 cm field,
+# 0.84 ms on a 5 cm one (12 contacts standing against 6); 10 cm halves the field's cost, and a
+# 15 cm step is then a 56 degree ramp one cell long.
+CELL_M = 0.10
 BACK_MARGIN_M = 3.0
 FRONT_MARGIN_M = 5.0
 SIDE_MARGIN_M = 4.0

@@ -38,7 +38,7 @@ class TerrainGrid:
     y0: float
     cols: int
     rows: int
-    cell: float = 0.05
+    cell: float
 
     @property
     def xs(self) -> np.ndarray:

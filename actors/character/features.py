@@ -34,11 +34,13 @@ def observation_dim(reference_steps: int = 0, character=HUMANOID3D) -> int:
     return obs_dim(character) + REFERENCE_OBS_WIDTH * reference_steps
 
 
-def observation_layout(character=HUMANOID3D, reference_steps: int = 0, pose_steps: int = 0, scene_dim: int = 0) -> list[dict]:
+def observation_layout(character=HUMANOID3D, reference_steps: int = 0, pose_steps: int = 0, scene_dim: int = 0,
+                       heightmap_dim: int = 0) -> list[dict]:
     """The observation's blocks in order, each {name, start, size, what}: what `observations`
     writes (links in MuJoCo's body order 1..n, which for the humanoid3d is not
     `character.link_names`'s; everything in the root's heading frame), then the reference's
-    poses ahead (`actors/envs/reference_obs.py`) and a scene's vector."""
+    poses ahead (`actors/envs/reference_obs.py`), a scene's vector and a terrain's heightmap
+    (`actors/envs/ground.py`)."""
     n = character.num_links
     blocks = [("root_height", 1, "root height above the ground (m)"),
               ("link_positions", 3 * n, "each link's position relative to the root (m), x y z per link"),
@@ -49,7 +51,9 @@ def observation_layout(character=HUMANOID3D, reference_steps: int = 0, pose_step
               ("reference_root_rotations", 4 * reference_steps, "the reference root's rotation K steps ahead, w x y z"),
               ("phase", 1, "the clip's phase in [0, 1]"),
               ("reference_poses", pose_steps * pose_obs_width(character), "per step ahead: the reference's root height and link positions"),
-              ("scene", scene_dim, "the scene vector over its domain")]
+              ("scene", scene_dim, "the scene vector over its domain"),
+              ("heightmap", heightmap_dim, "the ground's height less the root's at 16 x 5 points around the root in its heading frame "
+                                           "(along -0.4..1.1 m by 0.1, across -0.3..0.3 m by 0.15; along-major)")]
     layout, start = [], 0
     for name, size, what in blocks:
         if size:

@@ -11,6 +11,7 @@ SUITES = ("env", "worker", "learner", "system", "peer", "pose")
 TARGET_WORKER_OVER_RAW = 0.85
 TARGET_OURS_OVER_PEER_1200HZ = 8.0
 TARGET_SYSTEM_2W_OVER_RAW = 0.6
+TARGET_HEIGHTMAP_OVER_BLIND = 0.85  # issue 49: the heightmap costs at most 15 % of worker steps
 
 
 @dataclass
@@ -33,6 +34,7 @@ class BenchConfig:
     pose_video: str | None = field(default=None, metadata={"help": "video for the pose suite (default ../shared's pose2sim cam01.mp4)"})
     pose_models: str | None = field(default=None, metadata={"help": "BlazePose model directory (default: $SFV_POSE_MODELS, the `sfv models fetch` cache, then ../shared's)"})
     seed: int = field(default=0, metadata={"help": "seed of random actions, policy init and learner data"})
+    terrain: str | None = field(default=None, metadata={"help": "worker suite: also M = envs_per_worker envs on this terrain at difficulty 1 (docs/terrain.md), with and without the heightmap, against the flat floor"})
 
     @classmethod
     def quick_defaults(cls, **overrides) -> BenchConfig:

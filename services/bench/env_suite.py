@@ -1,17 +1,20 @@
 """Suites `env` and `worker`: how close stepping gets to MuJoCo's own speed.
 
 env:    raw physics vs the env's step vs a rollout worker with policy inference (M envs).
-worker: the worker's batching sweep, M in `worker_envs`, each against the raw bound.
+worker: the worker's batching sweep, M in `worker_envs`, each against the raw bound; with a
+        terrain, M envs on it with and without the heightmap, and on the flat floor.
 All variants run in this process, one core, interleaved in every repetition.
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 from actors.character.actions import ActionMapper
 from actors.character.features import observation_dim
 from actors.character.humanoid import PhysicsConfig
-from actors.envs.imitation_env import EnvConfig
+from actors.envs.imitation_env import EnvConfig, ImitationEnv
 from actors.motion.formats.io import load_motion
-from services.bench.config import TARGET_WORKER_OVER_RAW, BenchConfig
+from services.bench.config import TARGET_HEIGHTMAP_OVER_BLIND, TARGET_WORKER_OVER_RAW, BenchConfig
 from services.bench.measure import Summary, interleaved, rate_for, ratio
 from services.bench.result import SuiteResult
 from services.bench.steppers import EnvStepper, RawPhysics, WorkerStepper, fresh_policy_weights
@@ -76,11 +79,32 @@ def run_worker_suite(config: BenchConfig, log) -> SuiteResult:
         # At least 32 env steps per chunk, so that a small M still amortises the sample() call.
         stepper = WorkerStepper(motion, env_config, m, weights, config.seed, steps_per_sample=max(8, 32 // m))
         variants[f"worker_m{m}"] = lambda s=stepper, m=m: rate_for(config.seconds, s.chunk).named(f"worker_m{m}_steps")
+    if config.terrain is not None:
+        variants.update(_terrain_variants(config, env_config, motion))
     runs = interleaved(variants, config.repeats, on_result=_progress(log))
-    result = SuiteResult("worker", step_summaries(runs), settings={**_settings(config, env_config), "worker_envs": list(config.worker_envs)})
+    result = SuiteResult("worker", step_summaries(runs), settings={**_settings(config, env_config), "worker_envs": list(config.worker_envs),
+                                                                    "terrain": config.terrain})
     for m in config.worker_envs:
         add_ratio_pair(result, f"worker_m{m}_over_raw", f"worker_m{m}_steps", "raw_steps")
+    if config.terrain is not None:
+        add_ratio_pair(result, "heightmap_over_blind", "terrain_heightmap_steps", "terrain_blind_steps", target=TARGET_HEIGHTMAP_OVER_BLIND)
+        add_ratio_pair(result, "terrain_over_flat", "terrain_heightmap_steps", "terrain_flat_steps")
     return result
+
+
+def _terrain_variants(config: BenchConfig, env_config: EnvConfig, motion) -> dict:
+    """M envs on the flat floor and on `config.terrain` at difficulty 1 (no curriculum) with and
+    without the heightmap, each sampled by a fresh policy of its observation's width."""
+    m = config.envs_per_worker
+    variants = {}
+    for name, settings in (("flat", {}), ("blind", {"heightmap": False}), ("heightmap", {"heightmap": True})):
+        env = replace(env_config, **settings) if not settings else replace(env_config, terrain=config.terrain, terrain_difficulty=1.0,
+                                                                              terrain_curriculum=False, **settings)
+        obs_dim = ImitationEnv(motion, env).obs_dim
+        weights = fresh_policy_weights(ActionMapper(env.action_parameterisation).action_dim, seed=config.seed, obs_dim=obs_dim)
+        stepper = WorkerStepper(motion, env, m, weights, config.seed)
+        variants[f"terrain_{name}"] = lambda s=stepper, n=name: rate_for(config.seconds, s.chunk).named(f"terrain_{n}_steps")
+    return variants
 
 
 def _progress(log):

@@ -35,6 +35,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--pose-video", default=None, help="video of the pose suite (default ../shared pose2sim cam01.mp4)")
     p.add_argument("--pose-models", default=None, help="BlazePose model directory (default $SFV_POSE_MODELS, the cache, ../shared)")
     p.add_argument("--seed", type=int, default=0, help="seed of random actions, policy init and learner data")
+    p.add_argument("--terrain", default=None, help="worker suite: also step envs-per-worker envs on this terrain (slopes, gaps, steps, rough, mixed) "
+                                                   "at difficulty 1, with and without the heightmap (their ratios to the flat floor)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     add_learning_arguments(p)
     add_videos_arguments(p)
@@ -51,7 +53,7 @@ def build_config(args):
     except ValueError as exc:
         raise SfvError(f"--suite {args.suite!r}: {exc}") from None
     overrides = {"suites": suites, "physics_hz": args.physics_hz, "envs_per_worker": args.envs_per_worker, "seed": args.seed,
-                 "peer_python": args.peer_python, "pose_video": args.pose_video, "pose_models": args.pose_models}
+                 "peer_python": args.peer_python, "pose_video": args.pose_video, "pose_models": args.pose_models, "terrain": args.terrain}
     for name in ("repeats", "seconds", "system_iterations"):
         if getattr(args, name) is not None:
             overrides[name] = getattr(args, name)

@@ -2,6 +2,7 @@
 
     sfv eval RUN [--episodes 32] [--push N [--push-impulse J] [--push-duration T]] [--seed K]
     sfv eval [RUN] --onnx policy.onnx [--motion deepmimic:walk]   (no torch)
+    sfv eval RUN --terrain mixed --terrain-difficulty 1 --terrain-seed 1000   (ground it never saw)
 
 Deterministic episodes (the policy's mean) start at evenly spaced phases of the clip (episode
 k of E at phase k/E, from the reference's full state there). Falls are always judged by the
@@ -23,6 +24,8 @@ import argparse
 import json
 import math
 import sys
+
+from services.commands._terrain_args import add_terrain_args, terrain_change
 
 # The same numbers as services.training.evaluation's (imported lazily: every sfv command builds this parser).
 DEFAULT_EPISODES = 32
@@ -59,6 +62,7 @@ def register(sub) -> None:
     p.add_argument("--physics-hz", default=None, metavar="HZ",
                    help="simulate at this physics rate instead of the run's (a whole multiple of its control rate): "
                         "does a policy trained at a cheaper rate keep its return at 300 Hz or 1.2 kHz?")
+    add_terrain_args(p)
     p.set_defaults(handler=run)
 
 
@@ -100,7 +104,7 @@ def run(args) -> int:
         raise SfvError("eval: give a run directory or --onnx FILE")
     result = evaluate_run(args.run, episodes, seed, onnx=args.onnx, motion=args.motion, pushes=pushes,
                           push_impulse=impulse, push_duration_s=duration, checkpoint=args.checkpoint,
-                          physics_hz=physics_hz)
+                          physics_hz=physics_hz, env_change=terrain_change(args, "eval"))
     if "first_frame" in result:
         print(result_line(result), file=sys.stderr)
     weak = weak_starts_line(result)

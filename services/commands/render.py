@@ -12,6 +12,7 @@ import argparse
 import json
 
 from services.commands._rollout_args import add_rollout_args
+from services.commands._terrain_args import add_terrain_args, terrain_change
 
 
 HELP = "render a trained policy beside its reference motion to an MP4"  # the one line `sfv --help` lists (without importing the command)
@@ -27,6 +28,7 @@ def register(sub) -> None:
                    help="best: best.pt, the best periodic evaluation (the newest checkpoint when the run has none); latest: the newest checkpoint")
     p.add_argument("--motion", default=None, help="reference motion (default: the run's); required for --onnx without a run")
     add_rollout_args(p)
+    add_terrain_args(p)
     p.add_argument("--push", type=int, default=0, metavar="N", help="random horizontal pushes on the root per episode")
     p.add_argument("--push-impulse", type=float, default=40.0, help="impulse of one push (N s)")
     p.add_argument("--push-duration", type=float, default=0.1, help="seconds a push acts (whole control steps)")
@@ -64,6 +66,9 @@ def run(args) -> int:
     config.validate()  # before the (slow) policy and env load
     check_video_path(args.out)
     source = load_policy_source(args.run, args.onnx, args.motion, args.checkpoint)
+    change = terrain_change(args, "render")
+    if change is not None:
+        source = dataclasses.replace(source, env_config=change(source.env_config))
     env = source.make_env()
     legend = " (blue: reference)" if config.ghost else ""
     config = dataclasses.replace(config, label=f"{source.description} on {env.motion.name}{legend}")

@@ -120,7 +120,8 @@ def _layout(env, scene_dim: int) -> list[dict]:
     from actors.character.features import observation_layout
 
     config = env.config
-    layout = observation_layout(env.humanoid.character, len(config.reference_obs_steps), len(config.reference_pose_obs_steps), scene_dim)
+    layout = observation_layout(env.humanoid.character, len(config.reference_obs_steps), len(config.reference_pose_obs_steps), scene_dim,
+                                env.heightmap_dim)
     return [{**block, "what": _WHAT.get(block["name"], block["what"])} for block in layout]
 
 
@@ -132,7 +133,7 @@ def _reference_track(track) -> dict:
 def runtime_metadata(env) -> dict[str, str]:
     """The metadata of the policy trained in `env` (an `ImitationEnv` built from the run's config)."""
     character, config, track = env.humanoid.character, env.config, env.track
-    scene_dim = env.obs_dim - env.scene_obs_start
+    scene_dim = env.obs_dim - env.scene_obs_start - env.heightmap_dim
     values = {
         "sfv_runtime": RUNTIME_FORMAT,
         "character": character.name,

@@ -79,10 +79,14 @@ class _Scene:
     def _pose_ghost(self) -> None:
         self.ghost.qpos[:] = self.env.track.qpos[self.env.row]
         self.ghost.qpos[0:3] += self.ghost_offset
+        if self.env.ground is not None:
+            self.env.ground.lift(0, self.ghost.qpos)  # over the terrain, as the reward sees it
         mujoco.mj_kinematics(self.env.model, self.ghost)
 
     def draw(self, lines, push_force: np.ndarray | None, snap: bool) -> np.ndarray:
         env = self.env
+        if snap and env.ground is not None:
+            self.renderer.upload_height_fields()  # the episode's new terrain
         # Follow the midpoint of character and ghost so that both stay in view.
         self._target[:] = env.data.qpos[0:2]
         if self.config.ghost:

@@ -96,6 +96,13 @@ class OffscreenRenderer:
         mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_ARROW, width, np.asarray(start, np.float64), np.asarray(end, np.float64))
         self.scene.ngeom += 1
 
+    def upload_height_fields(self) -> None:
+        """Send the model's height fields to the GPU again (a terrain drawn anew for an episode:
+        the context copied them when it was made)."""
+        self._gl.make_current()
+        for hfield in range(self.model.nhfield):
+            mujoco.mjr_uploadHField(self.model, self._context, hfield)
+
     # --------------------------------------------------------------- pixels
     def render(self, out: np.ndarray) -> np.ndarray:
         """Draw the scene into `out` ((height, width, 3) uint8, top row first)."""

@@ -170,7 +170,8 @@ def make_eval_env(motion, env_config) -> ImitationEnv:
 
 def evaluate_run(run_dir: str | Path | None, episodes: int = DEFAULT_EPISODES, seed: int = 0, onnx: str | None = None,
                  motion: str | None = None, pushes: int = 0, push_impulse: float | None = None,
-                 push_duration_s: float | None = None, checkpoint: str = "best", physics_hz: float | None = None) -> dict:
+                 push_duration_s: float | None = None, checkpoint: str = "best", physics_hz: float | None = None,
+                 env_change=None) -> dict:
     """Evaluate a run's best checkpoint (`checkpoint="latest"`: its newest; or an exported ONNX
     policy) on its motion (or `motion`), at the run's physics rate or at `physics_hz`."""
     from threadpoolctl import threadpool_limits
@@ -181,6 +182,8 @@ def evaluate_run(run_dir: str | Path | None, episodes: int = DEFAULT_EPISODES, s
     env_config = source.env_config
     if physics_hz is not None:
         env_config = with_physics_rate(env_config, physics_hz)
+    if env_change is not None:  # e.g. sfv eval's terrain flags (services/commands/_terrain_args.py)
+        env_config = env_change(env_config)
     env = make_eval_env(source.reference(), env_config)
     with threadpool_limits(1, user_api="blas"):  # batch-1 inference: BLAS threads only spin
         result = evaluate_policy(source.policy, env, episodes, seed, pushes, push_impulse, push_duration_s)

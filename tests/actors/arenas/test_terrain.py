@@ -79,7 +79,7 @@ def test_the_lookup_reads_the_heights_mujoco_collides_with():
     turned off the world's axes (vertices and planar cells exactly; a cell that is not planar
     within its height difference)."""
     frame = SceneFrame(origin=(1.0, -2.0), yaw=0.7)
-    arena = TerrainArena("mixed", frame, TerrainGrid(-3.0, -2.0, 400, 81))
+    arena = TerrainArena("mixed", frame, TerrainGrid(-3.0, -2.0, 200, 41, 0.1))
     model = Humanoid(arena=arena).model
     heights = np.zeros((1, arena.grid.rows, arena.grid.cols), np.float32)
     generate("mixed", 1.0, np.random.default_rng(2), arena.grid, heights[0])

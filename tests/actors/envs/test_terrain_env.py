@@ -26,7 +26,7 @@ def walk():
 
 def _step_ground(batch: int) -> Ground:
     """A 15 cm step up at world x = 1 m, everywhere across."""
-    arena = TerrainArena("steps", SceneFrame(), TerrainGrid(-3.0, -2.0, 201, 81))
+    arena = TerrainArena("steps", SceneFrame(), TerrainGrid(-3.0, -2.0, 201, 81, 0.05))
     ground = Ground.of(arena, batch)
     ground.heights[:, :, arena.grid.xs >= STEP_X] = STEP_H
     return ground
@@ -45,7 +45,7 @@ def test_the_heightmap_sees_a_step_ahead_facing_it_and_behind_facing_away():
     out = np.zeros((2, HEIGHTMAP_DIM))
     ground.heightmap(roots, _heading(np.array([0.0, np.pi])), out)
     along = np.repeat(HEIGHTMAP_ALONG, len(HEIGHTMAP_ACROSS))
-    cell = 0.05
+    cell = ground.arena.grid.cell
     facing, away = out[0] + 0.9, out[1] + 0.8  # ground heights
     for h, x in ((facing, 0.5 + along), (away, 0.8 - along)):  # world x of each point
         clear = np.abs(x - STEP_X) > cell  # not on the riser's cell
@@ -121,3 +121,11 @@ def test_the_curriculum_climbs_after_long_episodes_and_steps_down_after_falls():
     assert c.update(0, fell=True, steps=200) == pytest.approx(0.8 * (LEVELS - 1) / LEVELS)
     assert c.update(1, fell=False, steps=59) == 0.0  # too short to say
     assert c.update(1, fell=True, steps=10) == 0.0
+
+
+def test_the_observation_layout_names_the_heightmap_block_last(walk):
+    from actors.character.features import observation_layout
+
+    env = ImitationEnv(walk, EnvConfig(terrain="gaps"))
+    layout = observation_layout(env.humanoid.character, len(env.config.reference_obs_steps), 0, 0, env.heightmap_dim)
+    assert layout[-1]["name"] == "heightmap" and layout[-1]["start"] + layout[-1]["size"] == env.obs_dim == env.observation_space.shape[0]
