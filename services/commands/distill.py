@@ -13,20 +13,22 @@ short continues with --resume.
 """
 from __future__ import annotations
 
-import dataclasses
+
+MODULE_SET_BY_DATASET = frozenset({"proprio_dim", "future_dim", "action_dim"})  # read from the dataset
 
 
-def _add_config_flags(parser, cls, skip: tuple[str, ...] = ()) -> None:
-    for f in dataclasses.fields(cls):
-        if f.name in skip:
-            continue
-        default = f.default
-        kind = type(default)
-        flag = "--" + f.name.replace("_", "-")
-        if isinstance(default, tuple):
-            parser.add_argument(flag, type=int, nargs="+", default=None, help=f"{f.metadata['help']} (default {' '.join(map(str, default))})")
-        else:
-            parser.add_argument(flag, type=kind, default=None, help=f"{f.metadata['help']} (default {default})")
+def record_schema():
+    from services.motor.recorder import RecordConfig
+    from services.training.flags import ConfigSchema
+
+    return ConfigSchema(RecordConfig, "sfv distill", list_nargs=True)
+
+
+def module_schema():
+    from learner.motor_config import MotorModuleConfig
+    from services.training.flags import ConfigSchema
+
+    return ConfigSchema(MotorModuleConfig, "sfv distill", skipped=MODULE_SET_BY_DATASET, list_nargs=True)
 
 
 HELP = "distil expert controllers into a latent motor module (NPMP)"  # the one line `sfv --help` lists (without importing the command)
@@ -35,8 +37,7 @@ HELP = "distil expert controllers into a latent motor module (NPMP)"  # the one 
 def register(sub) -> None:
     import argparse
 
-    from learner.motor_config import MotorModuleConfig
-    from services.motor.recorder import RecordConfig
+    from services.training.flags import add_config_flags
 
     p = sub.add_parser("distill", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -50,23 +51,24 @@ def register(sub) -> None:
     p.add_argument("--torch-threads", type=int, default=None, help="CPU threads for torch (default: torch's)")
     p.add_argument("--resume", action="store_true", help="continue from the module directory's newest checkpoint")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
-    _add_config_flags(p, RecordConfig)
-    _add_config_flags(p, MotorModuleConfig, skip=("proprio_dim", "future_dim", "action_dim"))
+    add_config_flags(p, title="dataset recording (RecordConfig)", schema=record_schema())
+    add_config_flags(p, title="motor module (MotorModuleConfig)", schema=module_schema())
     p.set_defaults(handler=run)
 
 
-def _config(cls, args, skip: tuple[str, ...] = ()):
-    given = {f.name: getattr(args, f.name) for f in dataclasses.fields(cls) if f.name not in skip and getattr(args, f.name, None) is not None}
-    return cls(**given)
+def _config(schema, args):
+    from services.training.flags import given_settings, resolve
+
+    given, flags = given_settings(args, schema)
+    return resolve(given, flags, schema=schema)
 
 
 def run(args) -> int:
     from pathlib import Path
 
     from learner.errors import SfvError
-    from learner.motor_config import MotorModuleConfig
     from services.motor.dataset import MANIFEST
-    from services.motor.recorder import RecordConfig, expert_clips, record_dataset
+    from services.motor.recorder import expert_clips, record_dataset
     from services.motor.training import Distiller, DistillRun
 
     if args.updates < 1 or (args.torch_threads is not None and args.torch_threads < 1):
@@ -76,9 +78,9 @@ def run(args) -> int:
     if out.exists() and any(out.glob("checkpoint_*.pt")) and not args.resume:
         raise SfvError(f"{out}: a module is being trained there (add --resume to continue)")
     if not (dataset / MANIFEST).is_file():
-        manifest = record_dataset(Path(args.experts), expert_clips(Path(args.experts), args.clips), dataset, _config(RecordConfig, args), progress=not args.quiet)
+        manifest = record_dataset(Path(args.experts), expert_clips(Path(args.experts), args.clips), dataset, _config(record_schema(), args), progress=not args.quiet)
         print(f"dataset {dataset}: {manifest['steps']} steps of {len(manifest['clips'])} clips, {manifest['bytes'] / 2**20:.0f} MiB")
-    config = _config(MotorModuleConfig, args, skip=("proprio_dim", "future_dim", "action_dim"))
+    config = _config(module_schema(), args)
     distiller = Distiller(dataset, out, config, tuple(args.hold_out),
                           DistillRun(args.updates, device=args.device, torch_threads=args.torch_threads, progress=not args.quiet))
     distiller.train()

@@ -1,6 +1,6 @@
 """`sfv task`: task policies that reuse a motor module (NPMP 004 §3.4), or from scratch.
 
-    sfv task go-to|push-box --module MODULE --out RUN [--action latent|joint] [--samples N] [--resume]
+    sfv task go-to|push-box --module MODULE --out RUN [--action latent|joint] [--samples N] [--config F.yaml] [--resume]
     sfv task eval RUN [--episodes 32] [--seed K]        (one JSON object)
     sfv task render RUN --video OUT.mp4 [--episodes 2]
 
@@ -13,69 +13,81 @@ every eval figure.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import logging
 
 TASK_NAMES = {"go-to": "go_to", "push-box": "push_box"}
-SAFE_ON_RESUME = ("samples", "workers", "envs_per_worker", "runner", "torch_threads", "ray_address")
+SAFE_ON_RESUME = frozenset({"samples", "workers", "envs_per_worker", "runner", "torch_threads", "ray_address", "device",
+                            "worker_timeout_s", "checkpoint_every", "keep_checkpoints", "plot_every", "plot_min_interval_s"})
 
 
 HELP = "train, evaluate or render a task policy on a motor module (go-to, push-box)"  # the one line `sfv --help` lists (without importing the command)
 
 
+def task_schema():
+    """`TaskConfig` as flags, YAML and resume rules (the shared mechanism of `services/training/flags.py`)."""
+    from services.tasks.config import TaskConfig
+    from services.training.flags import Alias, ConfigSchema
+
+    aliases = (Alias("--module", ("env.module",)), Alias("--action", ("env.action",)),
+               Alias("--latent-scale", ("env.latent_scale",)), Alias("--horizon-s", ("env.horizon_s",)),
+               Alias("--batch-size", ("ppo.batch_size",)))
+    fixed = {"out", "env.task", "job_id", "curriculum_start_s", "curriculum_samples", "eval_every", "eval_episodes"}
+    return ConfigSchema(TaskConfig, "sfv task", aliases, SAFE_ON_RESUME, frozenset(fixed))
+
+
 def register(sub) -> None:
+    from services.training.flags import add_config_flags
+
     p = sub.add_parser("task", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("what", choices=(*TASK_NAMES, "eval", "render"), help="a task to train, or eval / render a run")
     p.add_argument("run", nargs="?", default=None, help="run directory (eval, render)")
-    p.add_argument("--module", default=None, help="motor module directory (sfv distill's output); needed for --action latent")
     p.add_argument("--out", default=None, help="run directory to train into")
-    p.add_argument("--action", choices=("latent", "joint"), default="latent", help="latent (z for the frozen decoder) or joint (PD targets from scratch)")
-    p.add_argument("--samples", type=int, default=None, help="environment steps to train for (default 1000000)")
-    p.add_argument("--workers", type=int, default=None, help="rollout workers (default 2)")
-    p.add_argument("--envs-per-worker", type=int, default=None, help="envs per worker (default 16)")
-    p.add_argument("--runner", choices=("ray", "in_process", "processes"), default=None, help="how workers run (default ray)")
-    p.add_argument("--seed", type=int, default=None, help="base seed (train); episode seed (eval, render)")
-    p.add_argument("--torch-threads", type=int, default=None, help="learner torch threads (0: every core)")
-    p.add_argument("--latent-scale", type=float, default=None, help="z = this x the policy's [-1, 1] action (default 1)")
-    p.add_argument("--horizon-s", type=float, default=None, help="episode length in seconds (default 10)")
-    p.add_argument("--batch-size", type=int, default=None, help="samples per PPO iteration (default 4096)")
+    p.add_argument("--config", default=None, metavar="FILE.yaml", help="settings from a YAML file (the run's config.json layout); flags given win")
     p.add_argument("--resume", action="store_true", help="continue the run in --out from its newest checkpoint")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--episodes", type=int, default=None, help="eval: episodes (default 32); render: episodes filmed (default 2)")
     p.add_argument("--video", default=None, help="render: the MP4 to write")
+    add_config_flags(p, title="settings (each a TaskConfig field; --seed is also eval's and render's episode seed)",
+                     schema=task_schema())
     p.set_defaults(handler=run)
 
 
+def _default_config(task: str, action: str) -> dict:
+    """A fresh run's config: the task's env and the PPO settings of its action space."""
+    from actors.envs.tasks.config import TaskEnvConfig
+    from services.tasks.config import TaskConfig, task_ppo
+
+    return TaskConfig(env=TaskEnvConfig(task=task, action=action), ppo=task_ppo(action)).to_dict()
+
+
 def build_config(args):
+    """The run's TaskConfig: defaults for its task and action space (or the saved config on
+    --resume), then --config, then flags; unsafe changes on --resume are refused."""
     from pathlib import Path
 
     from learner.errors import SfvError
-    from services.tasks.config import TaskConfig, task_ppo
+    from services.training.flags import given_settings, read_config_file, resolve
     from services.training.run_dir import CONFIG_FILE
 
     if not args.out:
         raise SfvError(f"sfv task {args.what}: --out is required (the run directory)")
-    given = {k: getattr(args, k) for k in ("samples", "workers", "envs_per_worker", "runner", "seed", "torch_threads")
-             if getattr(args, k) is not None}
-    env_given = {k: getattr(args, k) for k in ("latent_scale", "horizon_s") if getattr(args, k) is not None}
+    schema = task_schema()
+    given, flags = {}, {}
+    if args.config is not None:
+        given = read_config_file(args.config, schema)
+        flags = {path: f"{args.config}: {path}" for path in given}
+    from_flags, flag_names = given_settings(args, schema)
+    given.update(from_flags)
+    flags.update(flag_names)
+    given["env.task"], flags["env.task"] = TASK_NAMES[args.what], f"the task ({args.what})"
     saved = Path(args.out) / CONFIG_FILE
-    if args.resume and saved.is_file():
-        config = TaskConfig.from_dict(json.loads(saved.read_text()))
-        refused = [k for k in given if k not in SAFE_ON_RESUME] + list(env_given) + (["batch_size"] if args.batch_size else [])
-        if TASK_NAMES[args.what] != config.env.task or args.action != config.env.action:
-            refused.append(f"task/action ({args.what}, {args.action} vs the run's {config.env.task}, {config.env.action})")
-        if refused:
-            raise SfvError(f"sfv task --resume: {', '.join(refused)} cannot change mid-run ({saved})")
-        return dataclasses.replace(config, **given)
-    env = dict(task=TASK_NAMES[args.what], action=args.action, module=args.module, **env_given)
-    from actors.envs.tasks.config import TaskEnvConfig
-
-    ppo = task_ppo(args.action)
-    if args.batch_size is not None:
-        ppo.batch_size = args.batch_size
-    return TaskConfig(out=str(args.out), env=TaskEnvConfig(**env), ppo=ppo, **given)
+    resuming = args.resume and saved.is_file()
+    base = json.loads(saved.read_text()) if resuming else _default_config(given["env.task"], given.get("env.action", "latent"))
+    config = resolve(given, flags, base, resuming=resuming, schema=schema)
+    config.out = str(args.out)
+    return config
 
 
 def _train(args) -> int:
@@ -102,7 +114,7 @@ def _evaluate(args) -> int:
     if episodes <= 0:
         raise SfvError(f"sfv task eval: --episodes must be positive, got {episodes}")
     print(json.dumps({"run": args.run, "task": config.env.task, "action": config.env.action,
-                      **evaluate_task(config.env, weights, episodes, args.seed or 0)}))
+                      **evaluate_task(config.env, weights, episodes, getattr(args, "seed", 0))}))
     return 0
 
 
@@ -117,7 +129,7 @@ def _render(args) -> int:
     episodes = 2 if args.episodes is None else args.episodes
     if episodes <= 0:
         raise SfvError(f"sfv task render: --episodes must be positive, got {episodes}")
-    print(json.dumps(render_task(config.env, weights, args.video, episodes, args.seed or 0)))
+    print(json.dumps(render_task(config.env, weights, args.video, episodes, getattr(args, "seed", 0))))
     return 0
 
 

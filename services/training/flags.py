@@ -17,6 +17,11 @@ explicitly win where changing them mid-run is safe (`SAFE_ON_RESUME`: budget, le
 epochs, workers, addresses, ...) and are refused with a one-line error where it is not
 (network sizes, physics, reward, action and observation spaces), instead of being dropped
 silently.
+
+The mechanism is not the imitation config's alone: a `ConfigSchema` names a command's config
+dataclass, its short flags, its resume rules and the fields it sets itself, and every function
+here takes one (default: `sfv train`'s, `train_schema()`). `sfv task` (`TaskConfig`) and `sfv
+distill` (`RecordConfig`, `MotorModuleConfig`) build their flags, YAML and resume refusals with it.
 """
 from __future__ import annotations
 
@@ -127,8 +132,6 @@ ALIASES = (
           help="control steps ahead at which the policy observes the reference root (default 1,15); 'none' for SFV's observation"),
     Alias("--state-space", ("env.state_space",)),
     Alias("--scene", ("env.scene",), lambda text: None if text.strip().lower() == "none" else os.path.abspath(text), metavar="FILE.yaml"),
-    Alias("--terrain", ("env.terrain",), lambda text: None if text.strip().lower() == "none" else text, metavar="KIND"),
-    Alias("--terrain-difficulty", ("env.terrain_difficulty",), float, metavar="D"),
     Alias("--asi-std-scale", ("asi_initial_std_scale",), _positive(float)),
     Alias("--curriculum-samples", ("curriculum_samples",), _positive(int)),
     Alias("--no-root-sync", ("env.sync_root_per_cycle",), const=False,
@@ -151,6 +154,27 @@ SAFE_ON_RESUME = frozenset({
     "env.start_velocity_median_rows",  # where episodes start, not what the networks or the reward are
 })
 SKIPPED = frozenset({"out"})  # its own flag: required unless --print-config or a config file gives it
+
+
+@dataclass(frozen=True)
+class ConfigSchema:
+    """A command's settings: a config dataclass (with `to_dict` / `from_dict`) whose leaf fields
+    become flags, YAML keys and resume rules."""
+
+    root: Any  # the config class
+    command: str = "sfv train"  # the prefix of its one-line errors
+    aliases: tuple[Alias, ...] = ()
+    safe_on_resume: frozenset[str] = frozenset()
+    skipped: frozenset[str] = frozenset()  # fields the command sets itself (their flags are its own)
+    presets: bool = False  # `--reward` / `--preset` (the imitation config's presets)
+    list_nargs: bool = False  # list fields also take space-separated values (`--encoder-hidden 512 512`)
+
+
+def train_schema() -> ConfigSchema:
+    """`sfv train`'s schema (read at call time, so aliases and resume rules added here count)."""
+    from services.training.config import TrainConfig
+
+    return ConfigSchema(TrainConfig, "sfv train", ALIASES, SAFE_ON_RESUME, SKIPPED, presets=True)
 
 
 # --------------------------------------------------------------------------- the fields
@@ -238,17 +262,28 @@ def _default_text(value) -> str:
 
 
 # ------------------------------------------------------------------------- the parser
+class _JoinedList(argparse.Action):
+    """A list field given as several words (`512 512`) or one (`512,512`)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        try:
+            setattr(namespace, self.dest, self.type_of_list(",".join(values)))
+        except argparse.ArgumentTypeError as exc:
+            parser.error(f"argument {option_string}: {exc}")
+
+
 def add_config_flags(parser: argparse.ArgumentParser, skip: frozenset[str] = frozenset(),
                      title: str = "settings (each a config field; `--print-config` shows them all)",
-                     default_text: dict[str, str] | None = None) -> None:
+                     default_text: dict[str, str] | None = None, schema: ConfigSchema | None = None) -> None:
     """Every config field as a flag (default SUPPRESS: only what the user gave appears in args);
     `skip`: config paths a command sets itself (`sfv pipeline`: the motion), with their aliases;
     `default_text`: {config path: the default the help shows} where the command has its own."""
-    by_path = {leaf.path: leaf for leaf in leaves()}
-    aliased = {a.paths[0]: a for a in ALIASES if len(a.paths) == 1 and a.const is _MISSING}
+    schema = schema or train_schema()
+    by_path = {leaf.path: leaf for leaf in leaves(schema.root)}
+    aliased = {a.paths[0]: a for a in schema.aliases if len(a.paths) == 1 and a.const is _MISSING}
     group = parser.add_argument_group(title)
     for leaf in by_path.values():
-        if leaf.path in SKIPPED or leaf.path in skip:
+        if leaf.path in schema.skipped or leaf.path in skip:
             continue
         alias = aliased.get(leaf.path)
         names = list(dict.fromkeys(([alias.flag] if alias else []) + [leaf.flag]))
@@ -258,11 +293,16 @@ def add_config_flags(parser: argparse.ArgumentParser, skip: frozenset[str] = fro
         if base is bool:
             group.add_argument(*names, dest=leaf.path, action=argparse.BooleanOptionalAction, default=argparse.SUPPRESS, help=help_text)
             continue
+        if schema.list_nargs and typing.get_origin(base) is tuple and not (alias and alias.type):
+            action = group.add_argument(*names, dest=leaf.path, nargs="+", action=_JoinedList, default=argparse.SUPPRESS,
+                                        help=help_text, metavar=leaf.path.rsplit(".", 1)[-1].upper())
+            action.type_of_list = _parser_for(leaf)
+            continue
         group.add_argument(*names, dest=leaf.path, type=(alias.type if alias and alias.type else _parser_for(leaf)),
                            choices=leaf.choices, default=argparse.SUPPRESS, help=help_text,
                            metavar=(alias.metavar if alias and alias.metavar else None if leaf.choices
                                     else leaf.path.rsplit(".", 1)[-1].upper()))
-    for alias in ALIASES:
+    for alias in schema.aliases:
         if alias.paths[0] in aliased and aliased[alias.paths[0]] is alias or skip.intersection(alias.paths):
             continue
         dest = "alias:" + alias.flag
@@ -271,6 +311,11 @@ def add_config_flags(parser: argparse.ArgumentParser, skip: frozenset[str] = fro
             group.add_argument(alias.flag, dest=dest, action="store_const", const=alias.const, default=argparse.SUPPRESS, help=help_text)
         else:
             group.add_argument(alias.flag, dest=dest, type=alias.type, default=argparse.SUPPRESS, help=help_text, metavar=alias.metavar)
+    if schema.presets:
+        _add_preset_flags(group)
+
+
+def _add_preset_flags(group) -> None:
     group.add_argument("--reward", dest="preset:reward", type=_reward_preset, default=argparse.SUPPRESS, metavar="{deepmimic,sfv_paper}",
                        help="the sfv mode's reward preset (default deepmimic: weighted-mean joint errors, root term, centre-of-mass "
                             "velocity; sfv_paper: the paper's sums and weights); --env.sfv.reward.* fields adjust it")
@@ -293,33 +338,34 @@ def chosen_presets(args: argparse.Namespace) -> dict[str, str]:
     return {getattr(args, dest): flag for dest, flag in PRESET_FLAGS.items() if hasattr(args, dest)}
 
 
-def given_settings(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, str]]:
+def given_settings(args: argparse.Namespace, schema: ConfigSchema | None = None) -> tuple[dict[str, Any], dict[str, str]]:
     """({config path: value} the user gave on the command line, {config path: the flag used})."""
+    schema = schema or train_schema()
     values, flags = {}, {}
-    by_flag = {a.flag: a for a in ALIASES}
-    paths = {leaf.path for leaf in leaves()}
+    by_flag = {a.flag: a for a in schema.aliases}
+    paths = {leaf.path for leaf in leaves(schema.root)}
     for dest, value in vars(args).items():
         if dest.startswith("alias:"):
-            alias = by_flag[dest[len("alias:"):]]
-            for path in alias.paths:
+            alias = by_flag.get(dest[len("alias:"):])
+            for path in alias.paths if alias else ():
                 values[path], flags[path] = value, alias.flag
         elif dest in paths:
-            if dest in SKIPPED:
+            if dest in schema.skipped:
                 continue
             values[dest] = value
-            alias = next((a for a in ALIASES if a.paths == (dest,) and a.const is _MISSING), None)
+            alias = next((a for a in schema.aliases if a.paths == (dest,) and a.const is _MISSING), None)
             flags[dest] = alias.flag if alias else "--" + dest.replace("_", "-")
     return values, flags
 
 
 # ------------------------------------------------------------------------ config files
-def read_config_file(path: str | Path) -> dict[str, Any]:
+def read_config_file(path: str | Path, schema: ConfigSchema | None = None) -> dict[str, Any]:
     """{config path: value} from a YAML (or JSON) file in `--print-config`'s nested layout."""
     path = Path(path)
     document = read_yaml(path, "config file")
     if not isinstance(document, dict):
         raise SfvError(f"{path}: a config file holds a mapping of settings, got {type(document).__name__}")
-    by_path = {leaf.path: leaf for leaf in leaves()}
+    by_path = {leaf.path: leaf for leaf in leaves((schema or train_schema()).root)}
     flat: dict[str, Any] = {}
 
     def walk(node: dict, prefix: str) -> None:
@@ -372,26 +418,38 @@ def _type_name(kind) -> str:
 
 # ------------------------------------------------------------------------- resolution
 def resolve(given: dict[str, Any], flags: dict[str, str], base: dict | None = None,
-            presets: str | dict[str, str] | None = None, resuming: bool = False):
-    """The TrainConfig: `base` (a saved run config's dict; the defaults when None) with the
-    presets (a name, or {name: the flag that chose it}) and then the given settings applied.
-    On resume, an unsafe setting that differs from the run's is an SfvError naming its flag."""
-    from services.training.config import TrainConfig
-
-    config_dict = json.loads(json.dumps((TrainConfig() if base is None else TrainConfig.from_dict(base)).to_dict()))
+            presets: str | dict[str, str] | None = None, resuming: bool = False, schema: ConfigSchema | None = None):
+    """The config (a TrainConfig unless `schema` names another): `base` (a saved run config's dict;
+    the defaults when None) with the presets (a name, or {name: the flag that chose it}) and then the
+    given settings applied. On resume, an unsafe setting that differs from the run's is an SfvError
+    naming its flag."""
+    schema = schema or train_schema()
+    root = schema.root
+    config_dict = json.loads(json.dumps(_as_dict(root() if base is None else _from_dict(root, base))))
     for name, flag in ({presets: "--preset"} if isinstance(presets, str) else presets or {}).items():
         preset = preset_settings(name)
         given, flags = {**preset, **given}, {**dict.fromkeys(preset, flag), **flags}
     if resuming:
-        _refuse_unsafe_changes(given, flags, config_dict)
+        _refuse_unsafe_changes(given, flags, config_dict, schema.safe_on_resume)
     for path, value in given.items():
         _set(config_dict, path, list(value) if isinstance(value, tuple) else value)
     if "ppo.batch_size" in given and "ppo.minibatch_size" not in given:  # a smaller batch than one minibatch
         config_dict["ppo"]["minibatch_size"] = min(config_dict["ppo"]["minibatch_size"], config_dict["ppo"]["batch_size"])
     try:
-        return TrainConfig.from_dict(config_dict)
+        return _from_dict(root, config_dict)
     except (ValueError, TypeError) as exc:
-        raise SfvError(f"sfv train: {exc}") from None
+        raise SfvError(f"{schema.command}: {exc}") from None
+
+
+def _as_dict(config) -> dict:
+    return config.to_dict() if hasattr(config, "to_dict") else dataclasses.asdict(config)
+
+
+def _from_dict(root, values: dict):
+    """`root.from_dict`, or for a flat config without one its constructor (JSON lists back to tuples)."""
+    if hasattr(root, "from_dict"):
+        return root.from_dict(values)
+    return root(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})
 
 
 def preset_settings(name: str) -> dict[str, Any]:
@@ -420,9 +478,9 @@ def _movingcam_setup() -> dict[str, Any]:
     return preset
 
 
-def _refuse_unsafe_changes(given: dict, flags: dict, saved: dict) -> None:
+def _refuse_unsafe_changes(given: dict, flags: dict, saved: dict, safe: frozenset[str]) -> None:
     for path, value in given.items():
-        if path in SAFE_ON_RESUME:
+        if path in safe:
             continue
         old = _get(saved, path)
         new = list(value) if isinstance(value, tuple) else value
