@@ -26,7 +26,12 @@ def command_faults(argv: list[str]) -> list[str]:
             return [f"no command {words[0]!r} (choose from {', '.join(choices)})"]
         parser = choices[words.pop(0)]
         known |= set(parser._option_string_actions)
-    return [f"no flag {flag}" for flag in (w.split("=", 1)[0] for w in words if w.startswith("--")) if flag not in known]
+    faults = [f"no flag {flag}" for flag in (w.split("=", 1)[0] for w in words if w.startswith("--")) if flag not in known]
+    if argv[:1] == ["train"] and words and not words[0].startswith("-") and not words[0].isupper():
+        from services.specs import specs_for
+
+        faults += [] if words[0] in specs_for("train") else [f"no train spec {words[0]!r}"]
+    return faults
 
 
 @pytest.mark.parametrize("where, argv", sfv_command_lines(), ids=lambda v: v if isinstance(v, str) else "")
@@ -50,3 +55,4 @@ def test_the_checker_finds_a_missing_command_and_a_missing_flag():
     assert command_faults(["trian"]) and command_faults(["train", "--no-such-flag", "1"])
     assert command_faults(["motion", "chek", "x"]) and not command_faults(["motion", "check", "clip.npz"])
     assert not command_faults(["train", "--motion", "deepmimic:walk", "--workers", "2"])
+    assert not command_faults(["train", "cartwheel", "--out", "runs/cw"]) and command_faults(["train", "cartweel", "--out", "x"])

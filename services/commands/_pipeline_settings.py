@@ -2,19 +2,14 @@
 source of defaults and help text), less those the pipeline sets itself."""
 from __future__ import annotations
 
+from services.specs import run_spec
+
 # Training settings the pipeline sets itself: the motion is the reconstruction's; `--scene` is the
 # moving-camera path's boxes (fitted), not a fixed scene.
 PIPELINE_SETS = frozenset({"motion", "env.scene"})
 
-# The static pipeline's own defaults, where `sfv train`'s are a quick first run (200 k samples) on
-# any clip: a user's video should end in a controller that completes the clip from its first frame.
-# Pose2Sim, one worker, 2 M samples (31-38 min on shared cores): with ASI's uniform phases alone the
-# first frames got a ninth of the last frames' samples, and cam01's controller fell at 1.5 s of the
-# 1.67 s clip from the first frame (in-training eval .79, 1 of 8 falling); with half the episodes
-# started at the first frame (`first_frame_share`, FirstFrameStarts) cam01 and cam03 both complete
-# it upright (NR .767 and .849). sfv train keeps 0 until the clips that do not loop among the
-# DeepMimic ones (kick, punch, the getups) have been retrained with it.
-STATIC_DEFAULTS = {"samples": 2_000_000, "first_frame_share": 0.5}
+# The static pipeline's own defaults: its registered run spec (services/specs/catalog.py says why).
+STATIC_DEFAULTS = dict(run_spec("pipeline-static", "pipeline").settings)
 PIPELINE_DEFAULT_TEXT = {
     "samples": f"{STATIC_DEFAULTS['samples']} with a static camera, sfv train's per window with --camera moving",
     "first_frame_share": f"{STATIC_DEFAULTS['first_frame_share']} with a static camera, 0 with --camera moving",

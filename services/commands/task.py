@@ -1,6 +1,7 @@
 """`sfv task`: task policies that reuse a motor module (NPMP 004 §3.4), or from scratch.
 
     sfv task go-to|push-box --module MODULE --out RUN [--action latent|joint] [--samples N] [--config F.yaml] [--resume]
+    sfv task SPEC [--module MODULE] --out RUN            (a registered task spec: npmp-go-to-latent, ...)
     sfv task eval RUN [--episodes 32] [--seed K]        (one JSON object)
     sfv task render RUN --video OUT.mp4 [--episodes 2]
 
@@ -41,7 +42,10 @@ def register(sub) -> None:
 
     p = sub.add_parser("task", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("what", choices=(*TASK_NAMES, "eval", "render"), help="a task to train, or eval / render a run")
+    from services.specs import specs_for
+
+    p.add_argument("what", choices=(*TASK_NAMES, "eval", "render", *specs_for("task")),
+                   help="a task to train, a registered task spec (npmp-go-to-latent, ...), or eval / render a run")
     p.add_argument("run", nargs="?", default=None, help="run directory (eval, render)")
     p.add_argument("--out", default=None, help="run directory to train into")
     p.add_argument("--config", default=None, metavar="FILE.yaml", help="settings from a YAML file (the run's config.json layout); flags given win")
@@ -73,15 +77,19 @@ def build_config(args):
 
     if not args.out:
         raise SfvError(f"sfv task {args.what}: --out is required (the run directory)")
+    from services.specs import specs_for
+
     schema = task_schema()
-    given, flags = {}, {}
+    spec = specs_for("task").get(args.what)
+    given = dict(spec.settings) if spec else {"env.task": TASK_NAMES[args.what]}
+    flags = {path: f"spec {spec.name}: {path}" for path in given} if spec else {"env.task": f"the task ({args.what})"}
     if args.config is not None:
-        given = read_config_file(args.config, schema)
-        flags = {path: f"{args.config}: {path}" for path in given}
+        from_file = read_config_file(args.config, schema)
+        given.update(from_file)
+        flags.update({path: f"{args.config}: {path}" for path in from_file})
     from_flags, flag_names = given_settings(args, schema)
     given.update(from_flags)
     flags.update(flag_names)
-    given["env.task"], flags["env.task"] = TASK_NAMES[args.what], f"the task ({args.what})"
     saved = Path(args.out) / CONFIG_FILE
     resuming = args.resume and saved.is_file()
     base = json.loads(saved.read_text()) if resuming else _default_config(given["env.task"], given.get("env.action", "latent"))

@@ -49,3 +49,8 @@ def test_distill_list_settings_take_words_or_commas():
         args = parse("distill", "experts", "--out", "m", "--encoder-hidden", *words, "--steps-per-clip", "2k")
         assert distill._config(distill.module_schema(), args).encoder_hidden == (16, 32)
         assert distill._config(distill.record_schema(), args).steps_per_clip == 2000
+
+
+def test_a_task_spec_is_the_base_and_flags_override_it(tmp_path):
+    config = task.build_config(parse("task", "npmp-push-box-joint", "--out", str(tmp_path / "run"), "--samples", "1000"))
+    assert (config.env.task, config.env.action, config.samples, config.envs_per_worker) == ("push_box", "joint", 1000, 16)
