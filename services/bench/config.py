@@ -5,7 +5,8 @@ from dataclasses import dataclass, field
 
 from actors.character.humanoid import PhysicsConfig
 
-SUITES = ("env", "worker", "learner", "system", "peer", "pose")
+SUITES = ("env", "worker", "learner", "system", "peer", "pose", "scaling")
+NOT_IN_ALL = ("scaling",)  # dozens of training runs: asked for by name only
 
 # The targets (medians), reported next to what was measured.
 TARGET_WORKER_OVER_RAW = 0.85
@@ -34,10 +35,16 @@ class BenchConfig:
     pose_video: str | None = field(default=None, metadata={"help": "video for the pose suite (default ../shared's pose2sim cam01.mp4)"})
     pose_models: str | None = field(default=None, metadata={"help": "BlazePose model directory (default: $SFV_POSE_MODELS, the `sfv models fetch` cache, then ../shared's)"})
     seed: int = field(default=0, metadata={"help": "seed of random actions, policy init and learner data"})
+    scaling_workers: tuple[int, ...] = field(default=(1, 2), metadata={"help": "worker counts of the scaling suite (the 16-core machine: 1,2,4,8,14)"})
+    scaling_runners: tuple[str, ...] = field(default=("processes", "ray"), metadata={"help": "rollout runners of the scaling suite"})
+    scaling_iterations: int = field(default=6, metadata={"help": "PPO iterations (4096 samples each) per scaling run; the first is start-up, not measured"})
+    scaling_synthetic_workers: tuple[int, ...] = field(default=(2,), metadata={"help": "synthetic (replaying) worker counts of the learner/driver ceiling"})
+    scaling_learner_threads: int = field(default=2, metadata={"help": "torch threads of the learner in the ceiling runs"})
     terrain: str | None = field(default=None, metadata={"help": "worker suite: also M = envs_per_worker envs on this terrain at difficulty 1 (docs/terrain.md), with and without the heightmap, against the flat floor"})
 
     @classmethod
     def quick_defaults(cls, **overrides) -> BenchConfig:
-        base = {"quick": True, "repeats": 3, "seconds": 0.5, "worker_envs": (1, 16), "system_iterations": 2, "reconstruction_repeats": 1}
+        base = {"quick": True, "repeats": 3, "seconds": 0.5, "worker_envs": (1, 16), "system_iterations": 2, "reconstruction_repeats": 1,
+                "scaling_iterations": 3}
         base.update(overrides)
         return cls(**base)

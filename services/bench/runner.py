@@ -10,7 +10,7 @@ import sys
 import time
 from pathlib import Path
 
-from services.bench.config import SUITES, BenchConfig
+from services.bench.config import NOT_IN_ALL, SUITES, BenchConfig
 from services.bench.result import SuiteResult
 
 REPO = Path(__file__).resolve().parents[2]
@@ -21,10 +21,11 @@ def _suite_functions():
     from services.bench.learner_suite import run_learner_suite
     from services.bench.peer_suite import run_peer_suite
     from services.bench.pose_suite import run_pose_suite
+    from services.bench.scaling_suite import run_scaling_suite
     from services.bench.system_suite import run_system_suite
 
     return {"env": run_env_suite, "worker": run_worker_suite, "learner": run_learner_suite,
-            "system": run_system_suite, "peer": run_peer_suite, "pose": run_pose_suite}
+            "system": run_system_suite, "peer": run_peer_suite, "pose": run_pose_suite, "scaling": run_scaling_suite}
 
 
 def parse_suites(text: str) -> tuple[str, ...]:
@@ -36,7 +37,7 @@ def parse_suites(text: str) -> tuple[str, ...]:
     if unknown:
         raise ValueError(f"unknown suite {unknown[0]!r}; choose from {', '.join(SUITES)} or all (or learning, on its own)")
     if "all" in names:
-        return SUITES
+        return tuple(s for s in SUITES if s not in NOT_IN_ALL or s in names)
     return tuple(s for s in SUITES if s in names)
 
 

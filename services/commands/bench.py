@@ -37,6 +37,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of random actions, policy init and learner data")
     p.add_argument("--terrain", default=None, help="worker suite: also step envs-per-worker envs on this terrain (slopes, gaps, steps, rough, mixed) "
                                                    "at difficulty 1, with and without the heightmap (their ratios to the flat floor)")
+    p.add_argument("--scaling-workers", default=None, help="scaling suite: comma-separated worker counts (default 1,2; the 16-core machine: 1,2,4,8,14)")
+    p.add_argument("--scaling-runners", default=None, help="scaling suite: comma-separated runners (default processes,ray)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     add_learning_arguments(p)
     add_videos_arguments(p)
@@ -59,6 +61,10 @@ def build_config(args):
             overrides[name] = getattr(args, name)
     if args.system_runners is not None:
         overrides["system_runners"] = _system_runners(args.system_runners)
+    if args.scaling_runners is not None:
+        overrides["scaling_runners"] = _system_runners(args.scaling_runners, flag="--scaling-runners")
+    if args.scaling_workers is not None:
+        overrides["scaling_workers"] = _worker_counts(args.scaling_workers)
     config = BenchConfig.quick_defaults(**overrides) if args.quick else BenchConfig(**overrides)
     for name in ("repeats", "seconds", "system_iterations", "envs_per_worker", "physics_hz"):
         if not getattr(config, name) > 0:
@@ -70,14 +76,24 @@ def build_config(args):
     return config
 
 
-def _system_runners(text: str) -> tuple[str, ...]:
+def _system_runners(text: str, flag: str = "--system-runners") -> tuple[str, ...]:
     from services.training.config import RUNNER_NAMES
 
     runners = tuple(r.strip() for r in text.split(",") if r.strip())
     bad = [r for r in runners if r not in RUNNER_NAMES]
     if bad or not runners:
-        raise SfvError(f"--system-runners {text!r}: choose from {', '.join(RUNNER_NAMES)}, comma-separated")
+        raise SfvError(f"{flag} {text!r}: choose from {', '.join(RUNNER_NAMES)}, comma-separated")
     return runners
+
+
+def _worker_counts(text: str) -> tuple[int, ...]:
+    try:
+        counts = tuple(int(w) for w in text.split(",") if w.strip())
+    except ValueError:
+        counts = ()
+    if not counts or min(counts) < 1:
+        raise SfvError(f"--scaling-workers {text!r}: comma-separated worker counts >= 1, e.g. 1,2,4")
+    return counts
 
 
 def run_bench(args) -> int:
@@ -110,6 +126,10 @@ def run_bench(args) -> int:
     log = (lambda message: None) if args.quiet else (lambda message: print(message, file=sys.stderr, flush=True))
     report = run_benchmarks(config, log, command=command_line(args))
     write_json_atomic(out, report)
+    if "scaling" in report["suites"] and not report["suites"]["scaling"].get("skipped"):
+        from services.bench.scaling_suite import plot_scaling
+
+        print(f"plot: {plot_scaling(report, out.with_suffix('.png'))}")
     print(markdown_table(report))
     print(f"\nwritten to {out}")
     return 0

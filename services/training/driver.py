@@ -222,7 +222,9 @@ class Trainer:
             batch = self._merge(results, version)
             t_sample = time.perf_counter() - t0
             coverage = self._select_tuples(batch)
+            t_update = time.perf_counter()
             losses = self._update(learner, batch)
+            batch["update_seconds"] = time.perf_counter() - t_update
             n = batch["rewards"].size
             samples_before = self.samples
             self.samples += n
@@ -302,6 +304,7 @@ class Trainer:
             "samples": self.samples,
             "samples_per_s": n / seconds,
             "sampling_samples_per_s": n / max(sample_seconds, 1e-9),
+            "learner_update_s": batch["update_seconds"],  # the PPO update alone (the learner's busy time)
             "normalized_return": mean(episodes),
             "episode_length": mean(batch["episode_lengths"]),
             "fall_rate": mean(batch["episode_fell"].astype(np.float32)),

@@ -1,0 +1,165 @@
+"""Suite `scaling`: end-to-end training throughput against worker count, synchronous and
+asynchronous, on the processes and Ray runners, and the learner/driver ceiling.
+
+Every repetition runs, in rotating order, one short real training (`Trainer`: rollout workers,
+embedded ASI server, PPO learner, metrics, checkpoints) per runner x worker count x loop
+(`sync`: --max-policy-lag 0; `async`: --max-policy-lag 1), and the raw physics bound on one
+core. Each run is measured in steady state, from its second iteration's record to its last
+(start-up and the first sample() of fresh workers left out):
+- samples/s, and its ratio to raw x min(workers, usable cores), the most those cores could
+  simulate with nothing else to do;
+- learner utilisation: the share of that wall time the PPO update ran;
+- policy lag: the mean over shares of how many updates old the weights that drew them were.
+
+The ceiling: the same runs with synthetic workers (`recorded_worker.py`: each replays the
+batch it first sampled, so sampling costs nothing) measure what the driver and the learner
+consume at most, on `scaling_learner_threads` torch threads, whatever the number of cores.
+"""
+from __future__ import annotations
+
+import gc
+import os
+import tempfile
+from pathlib import Path
+
+from services.bench.config import BenchConfig
+from services.bench.env_suite import env_config_for
+from services.bench.measure import Summary, interleaved, rate_for
+from services.bench.result import SuiteResult
+from services.bench.steppers import RawPhysics
+
+LOOPS = {"sync": 0, "async": 1}  # --max-policy-lag of each loop
+
+
+def stem(runner: str, workers: int, loop: str, synthetic: bool = False) -> str:
+    return f"{'synthetic' if synthetic else 'scaling'}_{runner}_{workers}w_{loop}"
+
+
+def steady_state(rows: list[dict]) -> dict[str, float]:
+    """Rates over a run's metrics rows from its second to its last (the first includes start-up)."""
+    if len(rows) < 3:
+        raise ValueError(f"a scaling run needs at least 3 iterations, got {len(rows)}")
+    first, rest = rows[0], rows[1:]
+    seconds = rest[-1]["time"] - first["time"]
+    samples = rest[-1]["samples"] - first["samples"]
+    return {"samples_per_s": samples / seconds,
+            "learner_utilisation": sum(r["learner_update_s"] for r in rest) / seconds,
+            "policy_lag": sum(r["policy_lag_mean"] for r in rest) / len(rest)}
+
+
+def _train(config: BenchConfig, out: Path, runner: str, workers: int, lag: int, synthetic: bool) -> dict[str, float]:
+    from services.bench.recorded_worker import RecordedWorker
+    from services.training.config import TrainConfig
+    from services.training.driver import Trainer
+    from services.training.run_dir import read_metrics
+
+    train = TrainConfig(motion=config.motion, out=str(out), workers=workers, envs_per_worker=config.envs_per_worker,
+                        init="rsi", seed=config.seed, env=env_config_for(config.physics_hz), runner=runner,
+                        max_policy_lag=lag, eval_every=0, plot_every=0, checkpoint_every=1000)
+    train.samples = config.scaling_iterations * train.ppo.batch_size
+    if synthetic:
+        train.torch_threads = config.scaling_learner_threads
+    trainer = Trainer(train, progress=False)
+    if synthetic:
+        trainer.worker_class = RecordedWorker
+    with trainer:
+        trainer.run()
+    gc.collect()  # drop the run's actor handles so Ray frees their CPUs before the next run
+    return steady_state(read_metrics(out))
+
+
+def run_scaling_suite(config: BenchConfig, log) -> SuiteResult:
+    import ray
+
+    from services.ray_session import connect_ray
+
+    cores = len(os.sched_getaffinity(0))
+    counts = tuple(w for w in config.scaling_workers if w >= 1)
+    started_ray = "ray" in config.scaling_runners and connect_ray(num_cpus=max(counts + (cores,)), log_to_driver=False)
+    raw = RawPhysics(env_config_for(config.physics_hz))
+    grid = [(runner, workers, loop, False) for runner in config.scaling_runners for workers in counts for loop in LOOPS]
+    grid += [("processes", workers, loop, True) for workers in config.scaling_synthetic_workers for loop in LOOPS]
+    try:
+        with tempfile.TemporaryDirectory(prefix="sfv-bench-scaling-") as tmp:
+            runs = iter(range(10**9))
+
+            def variant(runner, workers, loop, synthetic):
+                return lambda: {f"{stem(runner, workers, loop, synthetic)}_{k}": v for k, v in
+                                _train(config, Path(tmp) / f"run{next(runs)}", runner, workers, LOOPS[loop], synthetic).items()}
+
+            variants = {"raw_steps_per_s": lambda: rate_for(config.seconds, raw.chunk).wall}
+            variants.update({stem(*key): variant(*key) for key in grid})
+            values = interleaved(variants, config.repeats, warmup=1,
+                                 on_result=lambda r, n, v: log(f"  rep {r + 1}: {n} = {v:,.3f}"))
+    finally:
+        if started_ray:
+            ray.shutdown()
+    return _result(config, values, grid, cores)
+
+
+def _result(config: BenchConfig, values: dict, grid: list, cores: int) -> SuiteResult:
+    from services.bench.measure import Ratio
+
+    units = {"samples_per_s": "samples/s (steady state, learning included)", "learner_utilisation": "share of wall time updating",
+             "policy_lag": "updates (mean over shares)"}
+    metrics = {"raw_steps_per_s": Summary(tuple(values["raw_steps_per_s"]), "control steps/s (1 core)")}
+    for key in grid:
+        for quantity, unit in units.items():
+            name = f"{stem(*key)}_{quantity}"
+            metrics[name] = Summary(tuple(values[name]), unit)
+    settings = {"motion": config.motion, "physics_hz": config.physics_hz, "envs_per_worker": config.envs_per_worker,
+                "iterations_per_run": config.scaling_iterations, "batch_size": 4096, "init": "rsi", "usable_cores": cores,
+                "workers": list(config.scaling_workers), "runners": list(config.scaling_runners), "loops": LOOPS,
+                "synthetic_workers": list(config.scaling_synthetic_workers),
+                "synthetic_learner_threads": config.scaling_learner_threads, "repeats": config.repeats}
+    result = SuiteResult("scaling", metrics, settings=settings)
+    raw = metrics["raw_steps_per_s"]
+    for runner, workers, loop, synthetic in grid:
+        if synthetic:
+            continue
+        name = stem(runner, workers, loop)
+        top = metrics[f"{name}_samples_per_s"]
+        scale = min(workers, cores)
+        pairs = tuple(t / (scale * b) for t, b in zip(top.runs, raw.runs, strict=True))
+        target = 0.70 if workers == 2 and cores == 2 else (0.6 if workers == 14 else None)
+        result.ratios[f"{name}_over_raw"] = Ratio(f"{name}_samples_per_s", "raw_steps_per_s", top.median / (scale * raw.median),
+                                                   pairs, target)
+    result.notes.append(f"raw bound x min(workers, {cores} usable cores): more workers than cores share them")
+    return result
+
+
+def plot_scaling(report: dict, out: Path) -> Path:
+    """samples/s against workers, one line per runner and loop, beside the raw bound x cores."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    suite = report["suites"]["scaling"]
+    metrics, settings = suite["metrics"], suite["settings"]
+    counts, cores = settings["workers"], settings["usable_cores"]
+    raw = metrics["raw_steps_per_s"]["median"]
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ax.plot(counts, [raw * min(w, cores) for w in counts], "k--", label="raw physics bound x cores")
+    for runner in settings["runners"]:
+        for loop in settings["loops"]:
+            ys = [metrics[f"{stem(runner, w, loop)}_samples_per_s"]["median"] for w in counts]
+            ax.plot(counts, ys, "o-" if loop == "async" else "s:", label=f"{runner}, {loop}")
+    for loop in settings["loops"]:
+        for w in settings["synthetic_workers"]:
+            ceiling = metrics[f"{stem('processes', w, loop, True)}_samples_per_s"]["median"]
+            ax.axhline(ceiling, color="grey", lw=0.8, ls="-" if loop == "async" else ":")
+            ax.annotate(f"learner ceiling, {loop} ({ceiling:,.0f})", (counts[0], ceiling), fontsize=7, va="bottom")
+    ax.set_xlabel("rollout workers")
+    ax.set_ylabel("samples/s, learning included")
+    ax.set_xticks(counts)
+    ax.set_title(f"sfv training throughput ({cores} cores)")
+    ax.legend(fontsize=8, loc="upper left")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(out.stem + ".tmp" + out.suffix)
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    tmp.replace(out)
+    return out
