@@ -312,6 +312,7 @@ class Trainer:
             "reward_mean": float(batch["rewards"].mean()),
             "asi_version": int(asi_version),
             "charts/horizon_s": self._horizon_s() or self.config.env.horizon_s,
+            **({"charts/terrain_difficulty": mean(batch["episode_terrain_difficulty"])} if "episode_terrain_difficulty" in batch else {}),
             "asi_dropped_reports": int(batch["asi_dropped_reports"]),
             "worker_failures": self.faults.failures,
             "worker_restarts": self.faults.restarts,
