@@ -80,9 +80,8 @@ class PPOConfig:
     policy_lr: float = field(default=5e-5, metadata={"help": "policy learning rate at the start (paper SGD: 2.5e-6)"})
     desired_kl: float | None = field(
         default=None,
-        metadata={"help": "adapt the policy learning rate after each minibatch to keep approx KL near this (rsl_rl, ProtoMotions: 0.01; learner/schedule.py); starts at policy_lr; None: policy_lr with its anneal. "
-                          "Off by default: at the fixed 5e-5 and action std 0.1 a minibatch moves the policy by KL .02-.025; with 0.02 the rate rose to 3.8e-4 within 80 k samples "
-                          "and dance_a learned slower (training episodes 41 control steps at 1 M against 52, eval .051 at 1.5 M against .085; dance_b 43 against 49)"},
+        metadata={"help": "adapt the policy learning rate after each minibatch to keep approx KL near this (rsl_rl: 0.01); "
+                          "None: policy_lr with its anneal (measured: docs/training.md)"},
     )
     policy_lr_final: float | None = field(
         default=None,

@@ -29,7 +29,7 @@ STANDING_ROOT_HEIGHT = 0.8814  # hip + knee + ankle offsets + foot half height
 
 @dataclass(frozen=True)
 class PhysicsConfig:
-    physics_hz: float = field(default=300.0, metadata={"help": "physics (MuJoCo step) rate in Hz; 300 is the lowest at which a held pose and a walk playback stay stable (see README); the paper used 1200 in Bullet"})
+    physics_hz: float = field(default=300.0, metadata={"help": "physics (MuJoCo step) rate in Hz; 300 is the lowest at which a held pose and a walk playback stay stable (docs/training.md); the paper used 1200 in Bullet"})
     friction: float = field(default=0.9, metadata={"help": "sliding friction between the character and the ground"})
     armature: float = field(default=0.01, metadata={"help": "rotor inertia added to every actuated joint (kg m^2); keeps low physics rates stable"})
     joint_damping: float = field(default=0.0, metadata={"help": "passive joint damping on top of the PD kd"})

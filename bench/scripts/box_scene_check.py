@@ -3,7 +3,7 @@
     python bench/scripts/box_scene_check.py RUN --out bench/results/scene_box_jump.json
 
 RUN is a `sfv train` run on `bench/scenes/box_jump.npz` with `--scene` (see `bench/scripts/box_clip.py`;
-the README's "Boxes in the scene" section has the command). Writes one JSON object:
+bench/reports/moving_camera.md's "Boxes in the scene" section has the command). Writes one JSON object:
 
 - `training`: the run's evaluation figures (eval NR by the env's reward, imitation plus 002's
   scene reward over their maximum; fall rate; episode length) at each evaluation;

@@ -54,3 +54,13 @@ def test_distill_list_settings_take_words_or_commas():
 def test_a_task_spec_is_the_base_and_flags_override_it(tmp_path):
     config = task.build_config(parse("task", "npmp-push-box-joint", "--out", str(tmp_path / "run"), "--samples", "1000"))
     assert (config.env.task, config.env.action, config.samples, config.envs_per_worker) == ("push_box", "joint", 1000, 16)
+
+
+def test_every_setting_has_a_short_help_and_its_measurements_live_in_the_docs():
+    """A help text says what a setting does in one line; the numbers behind its default go to docs/."""
+    from services.training.flags import leaves, train_schema
+
+    for schema in (train_schema(), task.task_schema(), distill.record_schema(), distill.module_schema()):
+        for leaf in leaves(schema.root):
+            if leaf.path not in schema.skipped:
+                assert leaf.help and len(leaf.help) <= 320, (schema.command, leaf.path, len(leaf.help))

@@ -43,7 +43,7 @@ NUM_TERMS = len(TERM_NAMES)
 
 @dataclass(frozen=True)
 class MovingcamRewardConfig:
-    joint_error: str = field(default="mean", metadata={"choices": JOINT_ERROR_FORMS, "help": "mean: E_q and E_v averaged over the 12 joints and the 28 joint-velocity coordinates; sum: summed, as eq. 6 prints it. A trained walk / run policy (DeepMimic reward, RMS joint error .10 / .22 rad) scores r_q .29 / .005 and r_v .004 / 0 with sums: no signal left to learn from; with means r_q .89 / .55, r_v .52 / .01"})
+    joint_error: str = field(default="mean", metadata={"choices": JOINT_ERROR_FORMS, "help": "mean: E_q and E_v averaged over the joints and joint-velocity coordinates; sum: summed, as eq. 6 prints it (sums leave no signal: docs/training.md)"})
     joint_angle_weight: float = field(default=0.35, metadata={"help": "w_q, weight of the joint-angle term (002 eq. 6)"})
     joint_velocity_weight: float = field(default=0.1, metadata={"help": "w_v, weight of the joint-velocity term (eq. 6)"})
     orientation_weight: float = field(default=0.2, metadata={"help": "w_ori, weight of the body up-vector term against the video's hint (eq. 7)"})
