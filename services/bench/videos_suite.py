@@ -181,5 +181,5 @@ def add_arguments(parser) -> None:
     g = parser.add_argument_group("videos suite (sfv bench --suite videos --out FILE.json: sfv pipeline over real videos)")
     g.add_argument("--videos", default=None, metavar="PATH[,PATH]",
                    help="videos or folders of videos (default: the cameras of ../shared's Pose2Sim trials)")
-    g.add_argument("--runs-dir", default="bench/videos_runs",
+    g.add_argument("--runs-dir", default="runs/videos",
                    help="one sfv pipeline output directory per video goes here; a finished one is measured as it is")

@@ -4,8 +4,8 @@ A folder with `Calib_qualisys.toml` and triangulated `*.trc` files (one per pers
 Butterworth-filtered copies are skipped) gives 3D truth. The person the pipeline followed is
 the `.trc` whose 12 joints project nearest the subject's 2D keypoints through the video's
 camera (`camNN.mp4` -> `[cam_NN]`; the `.trc` axes permuted as `actors/motion/formats/trc.py`
-reads them). The kinematic reference (`keypoints3d` of motion.npz) and the simulated motion
-(simulated.npz) are compared with it on the controller's grid, hip-centred
+reads them). BlazePose's raw 3D prediction (`raw_keypoints3d`), the kinematic reference
+(`keypoints3d` of motion.npz) and the simulated motion (simulated.npz) are compared with it on the controller's grid, hip-centred
 (`services.reconstruction.metrics.evaluate`: PA-MPJPE, MPJPE after one similarity,
 acceleration error, mm), over the frames where every marker was triangulated.
 """
@@ -65,7 +65,7 @@ def followed_truth(video: Path, keypoints2d: np.ndarray, frames: np.ndarray) -> 
 
 
 def truth_errors(video: Path, report: dict, motion, simulated) -> dict | None:
-    """{"trc", "frames", "kinematic": {...}, "simulated": {...}} in mm, or None without truth."""
+    """{"trc", "frames", "kinematic": {...}, "simulated": {...}, "raw": {...}} in mm, or None without truth."""
     from services.pipeline.report import video_rows
     from services.reconstruction import JOINT_KEYPOINTS
     from services.reconstruction.metrics import evaluate
@@ -80,6 +80,8 @@ def truth_errors(video: Path, report: dict, motion, simulated) -> dict | None:
     whole = np.isfinite(truth).all(axis=(1, 2))
     hips = [JOINT_KEYPOINTS.index("RHip"), JOINT_KEYPOINTS.index("LHip")]
     motions = {"kinematic": np.asarray(motion.extras["keypoints3d"])[rows], "simulated": simulated.extras["keypoints3d"]}
+    if "raw_keypoints3d" in motion.extras:
+        motions["raw"] = np.asarray(motion.extras["raw_keypoints3d"])[rows]
     result = {"trc": path.name, "frames": int(whole.sum())}
     for name, points in motions.items():
         result[name] = {k: round(v, 1) for k, v in evaluate(points[whole], truth[whole], hips).items()}
