@@ -33,7 +33,7 @@ def task_schema():
     aliases = (Alias("--module", ("env.module",)), Alias("--action", ("env.action",)),
                Alias("--latent-scale", ("env.latent_scale",)), Alias("--horizon-s", ("env.horizon_s",)),
                Alias("--batch-size", ("ppo.batch_size",)))
-    fixed = {"out", "env.task", "job_id", "curriculum_start_s", "curriculum_samples", "eval_every", "eval_episodes"}
+    fixed = {"out", "env.task", "job_id", "curriculum_start_s", "curriculum_samples", "eval_every", "eval_episodes", "max_policy_lag"}
     return ConfigSchema(TaskConfig, "sfv task", aliases, SAFE_ON_RESUME, frozenset(fixed))
 
 

@@ -57,6 +57,7 @@ class TaskConfig:
     curriculum_samples: int = 1
     eval_every: int = 0
     eval_episodes: int = 1
+    max_policy_lag: int = 0  # the shared loop's synchronous collection (its asynchronous one is not measured on tasks)
 
     def validate(self) -> None:
         problems = list(self.env.problems())
