@@ -29,14 +29,8 @@ from services.commands._terrain_args import add_terrain_args, terrain_change
 
 # The same numbers as services.training.evaluation's (imported lazily: every sfv command builds this parser).
 DEFAULT_EPISODES = 32
-PUSH_RECOVERY_S = 1.0
-
-PUSH_HELP = ("push the character N times an episode: each push is an impulse (--push-impulse, N s) on the root (pelvis) "
-             "as a constant horizontal force impulse/duration for --push-duration seconds (whole control steps), in a "
-             "direction drawn uniformly on the horizontal circle; the pushes are spread evenly over the episode (the span "
-             f"after 0.5 s and before the last {PUSH_RECOVERY_S:g} s is cut into N equal slots, each push starts at a random "
-             "step of its slot; episode k draws from seed + k). push_survival_rate: fraction of the episodes long enough "
-             "for N pushes that end without a strict fall")
+PUSH_HELP = ("push the character N times an episode: an impulse of --push-impulse N s on the pelvis, spread evenly "
+             "over the episode (services/training/evaluation.py); adds push_survival_rate")
 
 
 HELP = "evaluate a trained policy with strict falls (prints one JSON object)"  # the one line `sfv --help` lists (without importing the command)

@@ -323,9 +323,6 @@ def test_sfv_eval_defaults_to_the_documented_episode_count():
 
     args = build_parser().parse_args(["eval", "run"])
     assert int(args.episodes) == DEFAULT_EPISODES == 32
-    from services.commands import eval as eval_command
-
-    assert eval_command.PUSH_RECOVERY_S == PUSH_RECOVERY_S
 
 
 @pytest.mark.parametrize("argv, flag", [
