@@ -42,7 +42,7 @@ class TaskConfig:
     seed: int = field(default=0, metadata={"help": "base seed; worker i uses seed + i"})
     ray_address: str | None = field(default=None, metadata={"help": "Ray cluster to join; local Ray when absent"})
     runner: str = field(default="ray", metadata={"choices": RUNNER_NAMES, "help": "ray, in_process or processes"})
-    device: str = field(default="cpu", metadata={"help": "torch device of the learner"})
+    device: str = field(default="auto", metadata={"help": "torch device of the learner: auto (the GPU when torch sees one, else the CPU), cpu, cuda, cuda:N"})
     torch_threads: int = field(default=0, metadata={"help": "learner's torch threads; 0 = every core"})
     worker_timeout_s: float = field(default=300.0, metadata={"help": "give up on a worker's batch after this long"})
     checkpoint_every: int = field(default=10, metadata={"help": "iterations between checkpoints (and at the end)"})

@@ -44,9 +44,9 @@ class TaskTrainer(Trainer):
         probe = VectorTaskEnv(config.env, 1)  # the dims; a bad --module fails here, before anything is written
         self.track_rows = probe.max_episode_steps  # a task's frames are steps since the episode began
         checkpoint = self._prepare_run_dir()
-        check_learner_device(config.device)
+        device = check_learner_device(config.device)
         _set_torch_threads(config)
-        learner = PPOLearner(probe.obs_dim, probe.action_dim, config.ppo, device=config.device)
+        learner = PPOLearner(probe.obs_dim, probe.action_dim, config.ppo, device=device)
         del probe
         if checkpoint is not None:
             self._restore(learner, checkpoint)

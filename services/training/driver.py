@@ -158,9 +158,9 @@ class Trainer:
         env, ref_states, ref_phases = self._reference_table(motion)
         checkpoint = self._prepare_run_dir()
         self.track_rows = env.track.rows  # the frame range of adaptive tuple sampling's coverage
-        check_learner_device(config.device)
+        device = check_learner_device(config.device)
         _set_torch_threads(config)
-        learner = PPOLearner(env.observation_space.shape[0], env.action_space.shape[0], config.ppo, device=config.device)
+        learner = PPOLearner(env.observation_space.shape[0], env.action_space.shape[0], config.ppo, device=device)
         asi_version = 0
         if checkpoint is not None:
             asi_version = self._restore(learner, checkpoint)
@@ -435,11 +435,14 @@ def _fmt(value) -> str:
     return "-" if value is None or (isinstance(value, float) and math.isnan(value)) else f"{value:.3f}"
 
 
-def check_learner_device(device: str) -> None:
-    """`--device` names a torch device this node has: a one-line SfvError, not torch's traceback
-    (a run trained on a GPU box and resumed on a CPU one keeps `device: cuda` in its config)."""
+def check_learner_device(device: str) -> str:
+    """The torch device `--device` names on this node: `auto` is the GPU when torch sees one,
+    else the CPU; a device this node lacks is a one-line SfvError, not torch's traceback (a run
+    trained on a GPU box and resumed on a CPU one keeps `device: cuda` in its config)."""
     import torch
 
+    if device == "auto":
+        return "cuda" if torch.cuda.is_available() else "cpu"
     try:
         kind = torch.device(device).type
     except (RuntimeError, ValueError) as exc:
@@ -447,6 +450,7 @@ def check_learner_device(device: str) -> None:
     if kind == "cuda" and not torch.cuda.is_available():
         raise SfvError(f"--device {device}: torch {torch.__version__} sees no CUDA device on this node; "
                        "--device cpu learns on the CPU (a resumed run takes it too)")
+    return device
 
 
 def _set_torch_threads(config: TrainConfig) -> int:

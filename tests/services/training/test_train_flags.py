@@ -58,7 +58,8 @@ def test_a_device_this_node_lacks_is_a_one_line_error_before_training(tmp_path, 
     from services.cli import main
     from services.training.driver import check_learner_device
 
-    check_learner_device("cpu")
+    assert check_learner_device("cpu") == "cpu"
+    assert check_learner_device("auto") == ("cuda" if torch.cuda.is_available() else "cpu")  # the default
     with pytest.raises(SfvError, match=r"^--device gpu0: not a torch device"):
         check_learner_device("gpu0")
     if torch.cuda.is_available():
