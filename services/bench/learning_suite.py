@@ -130,7 +130,7 @@ def add_arguments(parser) -> None:
     """The learning suite's own flags (`sfv bench` also has --envs-per-worker, --physics-hz, --seed, --quiet)."""
     g = parser.add_argument_group("learning suite (--suite learning)")
     g.add_argument("--out-dir", default=None, help="directory of learning.json, learning.png and runs/ (required for --suite learning)")
-    g.add_argument("--skills", default=None, help=f"comma-separated motions: deepmimic:<clip>, a bare clip name or a file or 'all' (every DeepMimic clip; default {','.join(DEFAULT_SKILLS)}); NAME@BUDGET gives that skill its own sample budget (backflip@20M)")
+    g.add_argument("--skills", default=None, help=f"comma-separated motions: deepmimic:<clip>, a bare clip name or a file or 'all' (every DeepMimic clip; default {','.join(DEFAULT_SKILLS)}) or 'specs' (every skill spec at its budget); NAME@BUDGET gives that skill its own sample budget (backflip@20M, cartwheel@spec)")
     g.add_argument("--inits", default=None, help="comma-separated initial-state strategies of asi, rsi, fsi (default all three)")
     g.add_argument("--seeds", default=None, help="comma-separated base seeds (default: --seed, 0)")
     g.add_argument("--samples", default=None, help=f"sample budget per run: 600, 500k, 2M, 1e6 (default {DEFAULT_SAMPLES:,})")
@@ -173,6 +173,8 @@ def split_budget(text: str, default: int) -> tuple[str, int]:
     if not name:
         raise SfvError(f"--skills {text!r}: no motion before '@'")
     raw = budget.strip()
+    if raw == "spec":
+        return name, spec_budget(name, text)
     try:
         value = whole_number(raw)
     except ValueError:
@@ -180,6 +182,24 @@ def split_budget(text: str, default: int) -> tuple[str, int]:
     if value < 1:
         raise SfvError(f"--skills {text!r}: the budget after '@' must be positive")
     return name, value
+
+
+def skill_specs() -> dict[str, int]:
+    """{clip: its run spec's budget} of the registered humanoid skill specs (the skills table)."""
+    from services.specs import specs_for
+
+    return {spec.settings["motion"].split(":", 1)[1]: spec.settings["samples"] for spec in specs_for("train").values()
+            if str(spec.settings.get("motion", "")).startswith("deepmimic:") and "env.character" not in spec.settings
+            and "init" not in spec.settings}
+
+
+def spec_budget(name: str, text: str) -> int:
+    """'cartwheel@spec': the budget of the clip's run spec."""
+    budgets = skill_specs()
+    clip = name.removeprefix("deepmimic:")
+    if clip not in budgets:
+        raise SfvError(f"--skills {text!r}: no run spec for {clip!r} (specs: {', '.join(budgets)})")
+    return budgets[clip]
 
 
 def _skill(text: str) -> tuple[str, str]:
@@ -237,6 +257,8 @@ def config_from_args(args) -> LearningConfig:
         from actors.motion.formats.io import DEEPMIMIC_CLIPS
 
         skills = list(DEEPMIMIC_CLIPS)
+    elif skills == ["specs"]:  # every skill spec at its own budget (the skills table)
+        skills = [f"{clip}@spec" for clip in skill_specs()]
     config.skills = tuple(dict.fromkeys(skills))
     for cell in cells(config):  # loads every skill (unknown ones fail here) and checks every run's settings
         train_config(config, cell)
