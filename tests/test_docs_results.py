@@ -1,5 +1,6 @@
-"""The README's results tables are checked against the JSON behind them: every row naming a run
-spec shows that spec's budget and the normalised return and falls its results file records."""
+"""The results tables of the README and docs/robots.md are checked against the JSON behind them:
+every row naming a run spec shows that spec's budget and the normalised return and falls its
+results file records."""
 from __future__ import annotations
 
 import json
@@ -8,8 +9,9 @@ import re
 from services.specs import specs_for
 from tests.conftest import REPO
 
-# | `walk` | 2 M | .981 | 0 |  (a row may hold two specs side by side)
-ROW_CELL = re.compile(r"\| `([a-z0-9-]+)` \| ([\d.]+) M \| (\.\d{3}) \| (\d+) ")
+# | `walk` | 2 M | .981 | 0 |  or  | `g1-walk` | 3 M | .967 | 0 / 32 |  (a row may hold two specs side by side)
+ROW_CELL = re.compile(r"\| `([a-z0-9-]+)` \| ([\d.]+) M \| (\.\d{3}) \| (\d+)(?: / \d+)? ")
+DOCUMENTS = ("README.md", "docs/robots.md")
 
 
 def eval_figures(report: str, motion: str) -> dict:
@@ -22,14 +24,14 @@ def eval_figures(report: str, motion: str) -> dict:
     return data.get("result", data)
 
 
-def readme_rows() -> list[tuple[str, str, str, str]]:
-    return [m.groups() for line in (REPO / "README.md").read_text().splitlines() for m in ROW_CELL.finditer(line)]
+def results_rows() -> list[tuple[str, str, str, str]]:
+    return [m.groups() for doc in DOCUMENTS for line in (REPO / doc).read_text().splitlines() for m in ROW_CELL.finditer(line)]
 
 
-def test_the_readme_results_rows_match_their_specs_and_results_files():
+def test_the_results_rows_match_their_specs_and_results_files():
     specs = specs_for("train")
-    rows = readme_rows()
-    assert len(rows) >= 19  # the 15 skills and the 4 G1 rows
+    rows = results_rows()
+    assert len(rows) >= 23  # the 15 skills and the 4 G1 rows, the G1 rows again in docs/robots.md
     for name, samples, nr, falls in rows:
         spec = specs[name]
         assert float(samples) == spec.settings["samples"] / 1e6, name
@@ -41,3 +43,4 @@ def test_the_readme_results_rows_match_their_specs_and_results_files():
 def test_the_row_reader_sees_a_changed_number():
     assert ROW_CELL.findall("| `walk` | 2 M | .981 | 0 | `run` | 3 M | .906 | 0 |") == [
         ("walk", "2", ".981", "0"), ("run", "3", ".906", "0")]
+    assert ROW_CELL.findall("| `g1-jump` | 4 M | .870 | 2 / 32 | [G1 report](x) |") == [("g1-jump", "4", ".870", "2")]
