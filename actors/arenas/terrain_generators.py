@@ -9,7 +9,7 @@ so a pelvis-height fall floor measured from 0 never fires on a hill.
 
 Each generator also returns the *support* profile (cols,): the ground the reference's root
 follows, gaps bridged and smoothed over SUPPORT_SMOOTH_M (a flat-ground clip climbs a step
-over a stride, not at the riser).
+over a stride, not at the riser); on rough ground the bumps' tops across the field.
 """
 from __future__ import annotations
 
@@ -64,7 +64,7 @@ def generate(kind: str, difficulty: float, rng: np.random.Generator, grid: Terra
     profile, support = np.zeros(grid.cols), np.zeros(grid.cols)
     if kind == "rough":
         out[:] = _bumps(grid, difficulty, rng)
-        return support
+        return _smooth(out.max(axis=0), grid.cell)  # the bumps' tops: a start never stands in one
     start = np.searchsorted(xs, FLAT_PAD_M)
     if kind == "mixed":
         _mixed(xs[start:], difficulty, rng, profile[start:], support[start:])
