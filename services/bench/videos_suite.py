@@ -18,12 +18,12 @@ that already holds report.json is measured as it is, one with a finished trainin
   PA-MPJPE, MPJPE after one similarity and acceleration error (mm) of the kinematic reference and
   of the simulated motion against the 12 triangulated joints, on the controller's 30 Hz grid;
 - the controller: outcome line, fall and when, NR from the first frame, minutes of the run;
-- the frame strip: the run's overlay_strip.png copied beside the results as `<out>_<name>.png`.
+- the frame strip: the run's overlay_strip.png beside the results as `<out>_<name>.png`, at most
+  STRIP_WIDTH px wide (the run's own is 1632 px and 1.1 MB).
 """
 from __future__ import annotations
 
 import json
-import shutil
 import subprocess
 import sys
 import time
@@ -38,6 +38,7 @@ REPO = Path(__file__).resolve().parents[2]
 SHARED_VIDEOS = REPO.parent / "shared" / "data" / "video"
 DEFAULT_FOLDERS = ("pose2sim_two_people", "pose2sim_balancing")
 VIDEO_SUFFIXES = {".mp4", ".avi", ".mov", ".mkv", ".webm"}
+STRIP_WIDTH = 1000
 MINUTES_FILE = "bench_minutes.json"  # the run's own wall time, kept beside it for a resumed suite
 
 
@@ -99,6 +100,21 @@ def subject_line(out: Path) -> str | None:
     return next((line for line in lines if line.startswith("subject: ")), None)
 
 
+def copy_strip(source: Path, target: Path) -> None:
+    """`source` at most STRIP_WIDTH px wide, written atomically (temp name, then rename)."""
+    import cv2
+
+    image = cv2.imread(str(source))
+    if image is None:
+        raise SfvError(f"{source}: not a readable image")
+    if image.shape[1] > STRIP_WIDTH:
+        size = (STRIP_WIDTH, round(image.shape[0] * STRIP_WIDTH / image.shape[1]))
+        image = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
+    temp = target.with_name(f".{target.name}.tmp.png")
+    cv2.imwrite(str(temp), image)
+    temp.replace(target)
+
+
 def video_row(video: Path, out: Path, minutes: float, strip: Path) -> dict:
     from actors.motion.formats.io import load_motion
     from services.bench.videos_truth import truth_errors
@@ -107,7 +123,7 @@ def video_row(video: Path, out: Path, minutes: float, strip: Path) -> dict:
     motion = load_motion(str(out / "motion.npz"))
     simulated = load_motion(str(out / "simulated.npz"))
     start = int(motion.extras.get("video_start_frame", 0))
-    shutil.copyfile(out / "overlay_strip.png", strip)
+    copy_strip(out / "overlay_strip.png", strip)
     return {
         "video": str(video), "licence": licence(video), "run": str(out), "minutes": minutes,
         "subject": {"person": int(motion.extras.get("person_id", 0)), "frames": [start, start + motion.num_frames - 1],

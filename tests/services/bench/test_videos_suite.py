@@ -30,7 +30,9 @@ def _finished_run(run, fell: bool) -> None:
     save_motion(_motion(10, {"video_start_frame": np.array(4), "person_id": np.array(1), "keypoints3d": joints,
                              "keypoints2d": np.zeros((10, 12, 2))}), run / "motion.npz")
     save_motion(_motion(10, {"keypoints3d": joints}), run / "simulated.npz")
-    (run / "overlay_strip.png").write_bytes(b"png")
+    import cv2
+
+    cv2.imwrite(str(run / "overlay_strip.png"), np.full((480, 1632, 3), 90, np.uint8))
     (run / "pipeline_stdout.txt").write_text("subject: person 1 of 2 (seen throughout and moves most)\n")
     (run / MINUTES_FILE).write_text(json.dumps({"minutes": 12.5}))
     report = {"control_hz": 30.0, "fell": fell, "fell_at_s": 0.2 if fell else None, "normalized_return": 0.5,
@@ -61,7 +63,11 @@ def test_the_suite_measures_finished_runs_and_writes_one_row_per_video(tmp_path,
     assert rows[0]["licence"] == "CC-BY 4.0, someone" and rows[0]["minutes"] == 12.5
     assert rows[0]["subject"] == {"person": 1, "frames": [4, 13], "line": "subject: person 1 of 2 (seen throughout and moves most)"}
     assert rows[1]["outcome"].startswith("fell at 0.20 s") and rows[0]["ground_truth"] is None
-    assert (tmp_path / "videos_clips_b.png").read_bytes() == b"png"
+    import cv2
+
+    assert cv2.imread(str(tmp_path / "videos_clips_b.png")).shape == (294, 1000, 3)  # 1632 x 480 scaled to 1000 wide
+    assert sorted(p.name for p in tmp_path.iterdir() if p.is_file()) == ["videos.json", "videos_clips_a.png",
+                                                                          "videos_clips_b.png"]
     table = capsys.readouterr().out
     assert "| clips_a | 4-13 (person 1) | 12.0 / 40.0 | 0.40 / 0.50 | 2.0 | - | completed | 0.500 | 12.5 |" in table
     assert "fell at 0.20 s" in markdown(rows)
