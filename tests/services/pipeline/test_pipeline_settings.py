@@ -35,3 +35,19 @@ def test_the_help_shows_the_pipelines_own_default(capsys):
     with pytest.raises(SystemExit):
         _args(["--help"])
     assert f"default: {STATIC_DEFAULTS['samples']} with a static camera" in " ".join(capsys.readouterr().out.split())
+
+
+def test_the_person_flags_reach_the_static_pipeline_and_bad_ones_are_one_line(tmp_path, capsys):
+    from services.cli import main
+
+    args = _args(["--person", "1", "--frames", "10:60"])
+    assert (args.person, args.person_at, args.frames) == (1, None, "10:60")
+    video = tmp_path / "clip.mp4"
+    video.write_bytes(b"")
+    for flags, message in ((["--camera", "moving", "--person", "1"], "--person is for --camera static"),
+                           (["--person", "-1"], "--person must be >= 0, got -1"),
+                           (["--person", "0", "--person-at", "1,2@3"], "--person and --person-at exclude each other"),
+                           (["--frames", "9:3"], "--frames '9:3': the end must come after the start")):
+        assert main(["pipeline", str(video), "--out", str(tmp_path / "o"), *flags]) == 2
+        assert message in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()  # nothing written before the flags were checked
