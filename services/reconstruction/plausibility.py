@@ -20,7 +20,11 @@ Rules (speeds between neighbouring frames, m/s):
 Repair: the frames only flagged steps touch get their root re-placed. At the clip's ends the
 next good frames' median velocity is extrapolated outward; inside, the path is interpolated
 linearly between the good frames on either side (a lone flagged step spreads over three
-steps). Joint rotations are kept; the world keypoints move with the root.
+steps). Joint rotations are kept; the world keypoints move with the root. The root's height in a
+re-placed frame is set so that its lowest joint is as high as the good frames' around it
+(`grounded_heights`): interpolating the root's own height lowered the body of two-people cam02's
+frame 90, whose pose is crouched, 6.7 cm (lowest joint 1.8 cm above the floor against 7-10 cm
+around it; the reference then went 5.1 cm into the floor).
 """
 from __future__ import annotations
 
@@ -107,6 +111,18 @@ def repaired_root(root_pos: np.ndarray, bad: np.ndarray, fps: float) -> np.ndarr
     return fixed
 
 
+def grounded_heights(fixed: np.ndarray, root_pos: np.ndarray, keypoints: np.ndarray, bad: np.ndarray) -> np.ndarray:
+    """`fixed` with the root height of the `bad` frames set so that each one's lowest joint
+    (keypoints (T, J, 3), world, moving with the root) is at the height interpolated from the
+    good frames' lowest joints (the nearest good frame's beyond the ends)."""
+    lowest = keypoints[..., 2].min(axis=1) - root_pos[:, 2]  # lowest joint below the root, per frame
+    good = np.flatnonzero(~bad)
+    target = np.interp(np.flatnonzero(bad), good, (lowest + root_pos[:, 2])[good])
+    grounded = fixed.copy()
+    grounded[bad, 2] = target - lowest[bad]
+    return grounded
+
+
 def check_reference(motion, contacts: np.ndarray | None = None):
     """(motion, ReferenceCheck): `motion` (a ReferenceMotion) with its root repaired where flagged
     (a new motion, velocities from the repaired path; the same one when nothing is flagged) and
@@ -128,6 +144,8 @@ def check_reference(motion, contacts: np.ndarray | None = None):
     if not bad.any():
         return motion, ReferenceCheck(steps, np.zeros(0, int), found + "; no plausible frame to repair from, left as is")
     fixed = repaired_root(motion.root_pos, bad, fps)
+    if "keypoints3d" in motion.extras:
+        fixed = grounded_heights(fixed, motion.root_pos, np.asarray(motion.extras["keypoints3d"]), bad)
     shift = fixed - motion.root_pos
     extras = dict(motion.extras)
     for key in SHIFTED_EXTRAS:

@@ -1,5 +1,6 @@
 """The reference check: root launches no body makes are flagged and repaired before training."""
 import numpy as np
+import pytest
 
 from actors.motion.reference_motion import ReferenceMotion
 from services.reconstruction.plausibility import (
@@ -100,3 +101,17 @@ def test_a_lone_step_inside_spreads_over_the_frames_at_its_ends():
     assert np.flatnonzero(bad_frames(flagged)).tolist() == [10, 11]
     flagged[:] = True
     assert not bad_frames(flagged).any()  # nothing good to repair from
+
+
+def test_a_repaired_frame_keeps_its_lowest_joint_at_the_height_of_its_neighbours():
+    root = _standing()
+    keypoints = np.repeat(root[:, None], 12, axis=1)
+    keypoints[:, :, 2] -= np.linspace(0.0, 0.8, 12)  # lowest joint 0.8 m below the root: 10 cm above the floor
+    root[30] += [0.0, 0.15, 0.1]  # a spike 15 cm deeper and 10 cm higher ...
+    keypoints[30] += [0.0, 0.15, 0.1 - 0.2]  # ... its lowest joint 1.0 m below its root (0.8 elsewhere), at the floor
+    checked, check = check_reference(_motion(root, {"keypoints3d": keypoints}))
+    assert check.repaired_frames.tolist() == [30]
+    lowest = checked.extras["keypoints3d"][..., 2].min(axis=1)
+    assert lowest[30] == pytest.approx((lowest[29] + lowest[31]) / 2)  # on the neighbours' height, not sunk
+    assert checked.root_pos[30, 2] == pytest.approx(lowest[30] + 1.0)  # the pose kept: the root 1.0 m above it
+    assert lowest[30] > 0.05  # interpolating the root's own height would have left it at the floor
