@@ -7,7 +7,8 @@ motion), and the reconstruction (a Ray task or in this process) is given the lea
 foot-contact estimate, which it records and, for a static camera, fits the feet to (feet on the
 ground and not sliding where they are down, `services/reconstruction/contact_fit.py`). A moving
 camera keeps the contacts as cues only: the static-camera world the fit uses moves with the
-pan, so a foot held still there would fight the keypoints; its motion is written root-free.
+pan, so a foot held still there would fight the keypoints; its motion is written root-free,
+with the root path its contacts and the camera's pan give as `root_path` (`root_path.py`).
 A static camera's root path is then checked for launches no body makes and repaired where it
 has them (`services/reconstruction/plausibility.py`); `VideoMotion.check` is the one line that
 says what was found, also kept in the motion as `reference_check`.
@@ -38,6 +39,7 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
     from services.reconstruction import reconstruct_on_ray, reconstruct_track
     from services.reconstruction.plausibility import check_reference
     from services.reconstruction.root_free import make_root_free
+    from services.reconstruction.root_path import root_path_extras
 
     track = crop_to_seen(track, source)
     path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
@@ -48,7 +50,9 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
     motion = reconstruct(track, config, name, track_contacts)
     motion.extras.update(video_extras(track, path, moving))
     if moving:
-        return VideoMotion(make_root_free(motion), track, path, moving)
+        free = make_root_free(motion)
+        free.extras.update(root_path_extras(free))  # the path the contacts give (root_path.py)
+        return VideoMotion(free, track, path, moving)
     motion, check = check_reference(motion, motion.extras.get("contacts"))
     motion.extras["reference_check"] = np.array(check.line)
     return VideoMotion(motion, track, path, moving, check.line)

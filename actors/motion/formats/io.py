@@ -11,7 +11,9 @@ Formats
   Optional arrays a video reconstruction adds (files without them load as before):
   `root_free` (bool; the camera moved, so the root path is not to be tracked, see
   `root_is_free`), `orientation_hint` / `orientation_hint_confidence` (T,), `camera_*`
-  (T,), `video_start_frame`, `person_id`.
+  (T,), `video_start_frame`, `person_id`, and for a root-free motion with contacts
+  `root_path` (T, 3) / `root_path_confidence` (T,), the path estimated from its contacts
+  (`services/reconstruction/root_path.py`; read with `root_path_estimate`).
   For box scenes (`actors/envs/scene_reward.py`): `box_contacts` (T, 4) int, the box each of the
   feet and hands touches (-1 none); synthetic clips also carry `scene_truth` (`bench/scripts/box_clip.py`).
 - BVH (`.bvh`, or any file starting with HIERARCHY) from any rig: the rig is detected from
@@ -222,6 +224,7 @@ def _load_npz(path: Path) -> ReferenceMotion:
         raise MotionFormatError(f"{path}: joint_names {names} do not match the humanoid's {JOINT_NAMES}")
     known = set(shapes) | {"format", "name", "loop", "joint_names"}
     extras = {k: v for k, v in arrays.items() if k not in known}
+    _check_root_path(path, extras, len(t))
     return ReferenceMotion(
         str(arrays.get("name", path.stem)),
         t - t[0],
@@ -231,6 +234,17 @@ def _load_npz(path: Path) -> ReferenceMotion:
         bool(arrays.get("loop", False)),
         extras,
     )
+
+
+def _check_root_path(path, extras: dict, frames: int) -> None:
+    """The estimated root path, where present: (T, 3) and (T,) finite numbers."""
+    for key, shape in (("root_path", (frames, 3)), ("root_path_confidence", (frames,))):
+        if key not in extras:
+            continue
+        a = extras[key]
+        if a.shape != shape or not np.issubdtype(a.dtype, np.number):
+            raise MotionFormatError(f"{path}: '{key}' has shape {a.shape} ({a.dtype}), expected {shape} numbers")
+        _check_finite(path, key, a.astype(np.float64))
 
 
 def check_motion(path, motion: ReferenceMotion) -> None:
@@ -268,6 +282,16 @@ def save_motion(motion: ReferenceMotion, path: str | os.PathLike) -> Path:
     with atomic_output(path) as tmp, open(tmp, "wb") as f:
         np.savez_compressed(f, **arrays)
     return path
+
+
+def root_path_estimate(motion: ReferenceMotion) -> tuple[np.ndarray, np.ndarray] | None:
+    """The estimated root path (T, 3) and its confidence (T,) of a root-free motion; None for
+    motions without one (older files, mocap)."""
+    if "root_path" not in motion.extras:
+        return None
+    path = np.asarray(motion.extras["root_path"], np.float64)
+    confidence = motion.extras.get("root_path_confidence")
+    return path, (np.ones(len(path)) if confidence is None else np.asarray(confidence, np.float64))
 
 
 def root_is_free(motion: ReferenceMotion) -> bool:
