@@ -114,7 +114,7 @@ def test_bad_flags_exit_2_and_write_nothing(tmp_path, capsys, flags, flag):
 
 def test_script_calls_the_same_command(tmp_path):
     out_dir = tmp_path / "out"
-    done = subprocess.run([sys.executable, str(REPO / "services" / "bench" / "scripts" / "learning.py"), "--out-dir", str(out_dir), "--inits", "bogus"],
+    done = subprocess.run([sys.executable, str(REPO / "bench" / "scripts" / "learning.py"), "--out-dir", str(out_dir), "--inits", "bogus"],
                           capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert done.returncode == 2 and "--inits 'bogus'" in done.stderr and not out_dir.exists()
 
