@@ -188,7 +188,6 @@ def _runs(mask: np.ndarray):
 # ----------------------------------------------------------------------------- ablations
 def ablations(data: dict) -> dict:
     """What each choice of the estimator buys (start-aligned RTE %, clean and both noises)."""
-    from actors.character.kinematics import forward_kinematics  # noqa: F401 (the points came from it)
     import services.reconstruction.root_path as rp
 
     def score(**overrides) -> dict:
@@ -281,7 +280,8 @@ def main() -> None:
         print(clip, {k: clips[clip][k]["rte_pct"] for k in ("clean", "contacts_flipped_10pct", "pose_noise_2p5cm", "both")},
               flush=True)
     result = {
-        "what": "issue 48 part 4 (a): the contact-anchored root-path estimate alone on DeepMimic clips (services/reconstruction/root_path.py)",
+        "what": ("issue 48 part 4 (a): the contact-anchored root-path estimate alone on DeepMimic clips "
+                 "(services/reconstruction/root_path.py)"),
         "fps": FPS, "seconds": SECONDS, "seeds": SEEDS, "flip_fraction": FLIP_FRACTION, "pose_noise_rms_m": NOISE_RMS_M,
         "clips": clips,
         "ablations_rte_start_pct": {clip: ablations(datasets[clip]) for clip in ("walk", "run")},
