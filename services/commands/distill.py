@@ -41,7 +41,11 @@ def register(sub) -> None:
 
     p = sub.add_parser("distill", help=HELP,
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    from services.specs import specs_for
+
     p.add_argument("experts", help="directory of expert run directories, one per clip")
+    p.add_argument("--spec", choices=tuple(specs_for("distill")), default=None,
+                   help="a registered distill spec (its clips, held-out clips and settings); flags given win")
     p.add_argument("--out", required=True, help="module directory")
     p.add_argument("--clips", nargs="+", default=None, help="clips to record (default: every expert with a checkpoint); <clip>_mirror: the mirrored expert of <clip>")
     p.add_argument("--hold-out", nargs="+", default=(), metavar="CLIP", help="recorded clips left out of training")
@@ -56,11 +60,34 @@ def register(sub) -> None:
     p.set_defaults(handler=run)
 
 
-def _config(schema, args):
-    from services.training.flags import given_settings, resolve
+SPEC_ARGUMENTS = ("clips", "hold_out")  # a distill spec's settings that are command-line arguments, not config fields
 
-    given, flags = given_settings(args, schema)
+
+def _spec(args):
+    from services.specs import run_spec
+
+    return run_spec(args.spec, "distill") if getattr(args, "spec", None) else None
+
+
+def _config(schema, args):
+    """The schema's config: its defaults, then the spec's settings, then the flags given."""
+    from services.training.flags import given_settings, leaves, resolve
+
+    spec, paths = _spec(args), {leaf.path for leaf in leaves(schema.root)}
+    given = {path: value for path, value in (spec.settings if spec else {}).items() if path in paths}
+    flags = {path: f"spec {spec.name}: {path}" for path in given}
+    from_flags, flag_names = given_settings(args, schema)
+    given.update(from_flags)
+    flags.update(flag_names)
     return resolve(given, flags, schema=schema)
+
+
+def _spec_arguments(args) -> None:
+    """The spec's clips and held-out clips where the command line gives none."""
+    spec = _spec(args)
+    if spec is not None:
+        args.clips = args.clips or list(spec.settings.get("clips", ())) or None
+        args.hold_out = args.hold_out or tuple(spec.settings.get("hold_out", ()))
 
 
 def run(args) -> int:
@@ -71,6 +98,7 @@ def run(args) -> int:
     from services.motor.recorder import expert_clips, record_dataset
     from services.motor.training import Distiller, DistillRun
 
+    _spec_arguments(args)
     if args.updates < 1 or (args.torch_threads is not None and args.torch_threads < 1):
         raise SfvError("distill: --updates and --torch-threads must be >= 1")
     out = Path(args.out)

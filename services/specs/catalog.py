@@ -59,5 +59,7 @@ for task, samples in NPMP_TASK_SAMPLES.items():
                          f"{samples / MIO:g} M samples", {"env.task": task, "env.action": action, "samples": samples,
                                                           "workers": 2, "envs_per_worker": 16}, "bench/results/npmp_tasks.json"))
 
-register(RunSpec("npmp-module", "distill", "the motor module of the one-shot table: 14 clips (7 and their mirrors), kick held out",
-                 {"steps_per_clip": 12_000}, "bench/results/npmp/one_shot.json"))
+NPMP_CLIPS = ("walk", "run", "cartwheel", "crawl", "getup_facedown", "walk_left", "kick")  # walk_left: the turning walk
+register(RunSpec("npmp-module", "distill", "the motor module of the one-shot table: 7 clips and their mirrors, kick held out",
+                 {"steps_per_clip": 12_000, "clips": (*NPMP_CLIPS, *(f"{clip}_mirror" for clip in NPMP_CLIPS)),
+                  "hold_out": ("kick", "kick_mirror")}, "bench/results/npmp/one_shot.json"))

@@ -29,7 +29,8 @@ def _resolve(spec: RunSpec, module_dir):
     if spec.command == "task":
         base = task._default_config(settings["env.task"], settings["env.action"])
         return resolve(settings, flags, base, schema=task.task_schema())
-    return resolve(settings, flags, schema=distill.record_schema())
+    config_settings = {k: v for k, v in settings.items() if k not in distill.SPEC_ARGUMENTS}
+    return resolve(config_settings, {k: flags[k] for k in config_settings}, schema=distill.record_schema())
 
 
 def test_every_spec_resolves_at_this_commit_and_names_an_existing_results_file(tmp_path):
@@ -70,3 +71,14 @@ def test_the_run_directory_records_the_spec_the_overrides_and_the_commit(tmp_pat
     assert record["given"]["samples"] == 64 and record["given"]["motion"] == "deepmimic:walk"
     assert record["git_commit"] is None or len(record["git_commit"].split("+")[0]) == 40
     assert json.loads((out / "config.json").read_text())["samples"] == 64
+
+
+def test_a_distill_spec_gives_its_clips_and_settings_and_flags_win():
+    args = parse("distill", "experts", "--out", "module", "--spec", "npmp-module", "--noise-std", "0.2")
+    distill._spec_arguments(args)
+    assert "walk_left_mirror" in args.clips and args.hold_out == ("kick", "kick_mirror")
+    record = distill._config(distill.record_schema(), args)
+    assert (record.steps_per_clip, record.noise_std) == (12_000, 0.2)
+    given = parse("distill", "experts", "--out", "module", "--spec", "npmp-module", "--clips", "walk", "--steps-per-clip", "100")
+    distill._spec_arguments(given)
+    assert given.clips == ["walk"] and distill._config(distill.record_schema(), given).steps_per_clip == 100
