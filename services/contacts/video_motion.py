@@ -8,7 +8,7 @@ foot-contact estimate, which it records and, for a static camera, fits the feet 
 ground and not sliding where they are down, `services/reconstruction/contact_fit.py`). A moving
 camera keeps the contacts as cues only: the static-camera world the fit uses moves with the
 pan, so a foot held still there would fight the keypoints; its motion is written root-free,
-with the root path its contacts and the camera's pan give as `root_path` (`root_path.py`).
+with the root path its contacts give as `root_path` (`root_path.py`).
 A static camera's root path is then checked for launches no body makes and repaired where it
 has them (`services/reconstruction/plausibility.py`); `VideoMotion.check` is the one line that
 says what was found, also kept in the motion as `reference_check`.

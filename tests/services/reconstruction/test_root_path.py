@@ -97,9 +97,10 @@ def test_a_panning_camera_is_turned_back_by_its_pan():
     fitted = ReferenceMotion("fitted", times, pose.root_pos, qn.quat_mul(spin, pose.root_rot), pose.joint_rot,
                              extras={"contacts": contacts > 0.5})
     distance = travelled(pose.root_pos)
-    bent = motion_root_path(fitted).position
+    bent = motion_root_path(fitted, turn_by_pan=True).position
     fitted.extras.update(camera_pan_px=pan, camera_zoom=np.ones(len(times)), camera_intrinsics=np.diag([focal, focal, 1.0]))
-    straight = motion_root_path(fitted).position
+    straight = motion_root_path(fitted, turn_by_pan=True).position
+    assert np.allclose(motion_root_path(fitted).position, bent)  # the stored path does not turn (TURN_BY_PAN)
     assert np.linalg.norm(bent[-1, :2] - pose.root_pos[-1, :2]) > 0.3 * distance
     assert np.linalg.norm(straight[-1, :2] - pose.root_pos[-1, :2]) < 0.03 * distance
 
