@@ -7,7 +7,7 @@ root-relative 3D pose (WHAM refines its root path the same way). Per frame step:
 
 - a foot's anchor is its lowest sole point (a soft minimum over the foot box's corners, a fixed
   point of the foot between the two frames): the foot rolls from heel to toe, and anchoring the
-  ankle instead let the walk's path drift (see `ANCHOR_SOFTNESS_M`);
+  foot box's centre instead let the walk's path drift (see `ANCHOR_SOFTNESS_M`);
 - each foot down at both frames proposes a root step, weighted by its contact confidence (the
   smaller of the two frames'); when both are down but disagree by more than `DISAGREE_MPS`
   (one of them is a swinging foot labelled down), the one nearer the previous step wins;
