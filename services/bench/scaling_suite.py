@@ -11,6 +11,11 @@ core. Each run is measured in steady state, from its second iteration's record t
 - learner utilisation: the share of that wall time the PPO update ran;
 - policy lag: the mean over shares of how many updates old the weights that drew them were.
 
+Beside the single-core raw bound, the raw bound of N processes stepping at once
+(`parallel_raw.py`, N = min(workers, cores)): its ratio to N x the single-core bound is what the
+cores deliver together (shared caches, memory bandwidth, clocks), the part of the loss from one
+worker to several that no training code can remove.
+
 The ceiling: the same runs with synthetic workers (`recorded_worker.py`: each replays the
 batch it first sampled, so sampling costs nothing) measure what the driver and the learner
 consume at most, on `scaling_learner_threads` torch threads, whatever the number of cores.
@@ -24,7 +29,8 @@ from pathlib import Path
 
 from services.bench.config import BenchConfig
 from services.bench.env_suite import env_config_for
-from services.bench.measure import Summary, interleaved, rate_for
+from services.bench.measure import Summary, interleaved, rate_for, ratio
+from services.bench.parallel_raw import parallel_raw_steps_per_s
 from services.bench.result import SuiteResult
 from services.bench.steppers import RawPhysics
 
@@ -88,6 +94,8 @@ def run_scaling_suite(config: BenchConfig, log) -> SuiteResult:
                                 _train(config, Path(tmp) / f"run{next(runs)}", runner, workers, LOOPS[loop], synthetic).items()}
 
             variants = {"raw_steps_per_s": lambda: rate_for(config.seconds, raw.chunk).wall}
+            for n in _parallel_counts(counts, cores):
+                variants[f"parallel_raw_{n}p_steps_per_s"] = lambda n=n: parallel_raw_steps_per_s(config.physics_hz, config.seconds, n)
             variants.update({stem(*key): variant(*key) for key in grid})
             values = interleaved(variants, config.repeats, warmup=1,
                                  on_result=lambda r, n, v: log(f"  rep {r + 1}: {n} = {v:,.3f}"))
@@ -97,12 +105,20 @@ def run_scaling_suite(config: BenchConfig, log) -> SuiteResult:
     return _result(config, values, grid, cores)
 
 
+def _parallel_counts(counts: tuple[int, ...], cores: int) -> list[int]:
+    return sorted({min(w, cores) for w in counts if min(w, cores) > 1})
+
+
 def _result(config: BenchConfig, values: dict, grid: list, cores: int) -> SuiteResult:
     from services.bench.measure import Ratio
 
     units = {"samples_per_s": "samples/s (steady state, learning included)", "learner_utilisation": "share of wall time updating",
              "policy_lag": "updates (mean over shares)"}
     metrics = {"raw_steps_per_s": Summary(tuple(values["raw_steps_per_s"]), "control steps/s (1 core)")}
+    parallel = _parallel_counts(tuple(config.scaling_workers), cores)
+    for n in parallel:
+        metrics[f"parallel_raw_{n}p_steps_per_s"] = Summary(tuple(values[f"parallel_raw_{n}p_steps_per_s"]),
+                                                            f"control steps/s, {n} processes at once (sum)")
     for key in grid:
         for quantity, unit in units.items():
             name = f"{stem(*key)}_{quantity}"
@@ -124,6 +140,8 @@ def _result(config: BenchConfig, values: dict, grid: list, cores: int) -> SuiteR
         target = 0.70 if workers == 2 and cores == 2 else (0.6 if workers == 14 else None)
         result.ratios[f"{name}_over_raw"] = Ratio(f"{name}_samples_per_s", "raw_steps_per_s", top.median / (scale * raw.median),
                                                    pairs, target)
+    for n in parallel:
+        result.ratios[f"parallel_raw_{n}p_over_raw"] = ratio(metrics, f"parallel_raw_{n}p_steps_per_s", "raw_steps_per_s", scale=n)
     result.notes.append(f"raw bound x min(workers, {cores} usable cores): more workers than cores share them")
     return result
 

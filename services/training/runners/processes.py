@@ -1,5 +1,5 @@
 """Rollout workers in plain spawned processes that talk over pipes: training without Ray
-(a GPU box without the Ray wheel, `services/bench/scripts/scaling.py`).
+(a GPU box without the Ray wheel, `bench/scripts/scaling.py`).
 
 Worker processes get one BLAS/OpenMP thread each, as Ray gives its 1-CPU actors. A worker
 that raises stops the run with its error; a worker process that dies (killed, out of memory)
