@@ -36,6 +36,7 @@ class SimulatedRun:
     clip_frames: np.ndarray  # (T,) the clip frame nearest to each simulated frame (control steps)
     fell_at_frame: int | None  # clip frame
     control_hz: float
+    reference_qpos: np.ndarray | None = None  # (T, nq) the window's reference row each frame went towards
 
     def motion(self, name: str, layout) -> ReferenceMotion:
         joint_rot = np.empty((len(self.qpos), layout.num_joints, 4))
@@ -61,12 +62,13 @@ class _Recorder:
         self.body_ids = humanoid.body_ids
         self.foot_geoms = humanoid.model.body_geomadr[humanoid.body_ids[list(FOOT_LINKS)]]
         self.ghost = mujoco.MjData(humanoid.model)
-        self.rows = {k: [] for k in ("qpos", "links", "reference_links", "contacts", "window", "clip_frame")}
+        self.rows = {k: [] for k in ("qpos", "links", "reference_links", "contacts", "window", "clip_frame", "reference_qpos")}
 
     def record(self, env: ImitationEnv, window, frame: int) -> None:
         self.rows["qpos"].append(env.data.qpos.copy())
         self.rows["links"].append(env.data.xpos[self.body_ids].copy())
         self.ghost.qpos[:] = env.track.qpos[env.row]
+        self.rows["reference_qpos"].append(self.ghost.qpos.copy())
         mujoco.mj_kinematics(env.model, self.ghost)
         self.rows["reference_links"].append(self.ghost.xpos[self.body_ids].copy())
         self.rows["contacts"].append(foot_contacts(env.model, env.data, self.foot_geoms))
@@ -115,4 +117,4 @@ def final_rollout(runs, e=None, seed: int = 0) -> SimulatedRun:
         handover = _handover_of(env)
     rows = {k: np.asarray(v) for k, v in recorder.rows.items()}
     return SimulatedRun(rows["qpos"], rows["links"], rows["reference_links"], rows["contacts"], rows["window"],
-                        rows["clip_frame"], fell, control_hz)
+                        rows["clip_frame"], fell, control_hz, rows["reference_qpos"])

@@ -26,6 +26,8 @@ class SceneFitOutcome:
     simulated: object  # final_rollout.SimulatedRun in the fitted scene
     runs: list  # sequence.WindowRun
     scene_vector: np.ndarray | None  # the fitted e (None: no scene)
+    coverage: object = None  # coverage.Coverage of the clip by `simulated`
+    clip: object = None  # the root-free motion the windows were cut from
 
 
 def check_inputs(motion_path: str, scene_path: str | None, env_config):
@@ -70,10 +72,15 @@ def run_scene_fit(motion_path: str, scene_path: str | None, out: Path, base: Tra
         summary["initial_scene_scores"] = stages.initial.scores(reference_contacts)  # Table 2's "fixed scene"
     simulated = stages.simulated
     summary["scores"] = simulated.scores(reference_contacts)
+    from services.scene_fit.coverage import coverage
+
+    cover = coverage(simulated, windows, clip.frame_times)
+    summary["coverage"] = cover.to_dict()
+    log.info("%s", cover.line)
     from actors.character.humanoid3d import Humanoid
     from actors.character.state import StateLayout
 
     motion = simulated.motion(f"{clip.name}-simulated", StateLayout(Humanoid()))
     fitted = None if scene is None else scene_contract.scene_with(scene, e)
     summary["files"] = write_outputs(out, motion, fitted, summary)
-    return SceneFitOutcome(summary, simulated, runs, e)
+    return SceneFitOutcome(summary, simulated, runs, e, cover, clip)
