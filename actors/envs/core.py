@@ -72,6 +72,7 @@ class ImitationCore:
         self.reference_pose_obs = ReferencePoseObservation(track, num_envs, config.reference_pose_obs_steps)
         self.target_lead = first.target_lead_steps  # residual actions add to the reference this many steps later
         self.captures = (self.features.capture, *self.mode.captures)
+        self.mode.features = self.features  # a mode observing in the character's heading frame reads it (movingcam's path cue)
         self.fall_detector = first.fall_detector
         self.configure(config)
         self.scene_reward = scene_reward

@@ -14,6 +14,7 @@ class MovingcamMode:
     term_names = TERM_NAMES
     tracks_root = False
     characters = ("humanoid3d",)  # its cues name the humanoid's feet, hands and neck (clip_cues.py)
+    features = None  # the core's FeatureExtractor (set by the core): the path cue is observed in its heading frames
 
     def __init__(self, config, track, humanoid, batch: int):
         self.tracking = MovingcamTracking(track, humanoid, config.movingcam, batch, config.reference_obs_steps)
@@ -23,7 +24,7 @@ class MovingcamMode:
 
     @staticmethod
     def step_reward_bound(config) -> float:
-        return config.movingcam.reward.max_reward
+        return config.movingcam.reward.max_reward + max(0.0, config.movingcam.path_weight)
 
     def rewards(self, rows, features, sim, ref, terms, check_termination):
         return self.tracking.rewards(rows, features, sim, ref, terms, check_termination)
@@ -33,7 +34,7 @@ class MovingcamMode:
         return float(self.tracking.rewards(row_buf, features, sim, ref, terms, False)[0])
 
     def observe(self, rows, out) -> None:
-        self.tracking.observe(rows, out)
+        self.tracking.observe(rows, out, self.features)
 
     def set_obstacles(self, geom_ids) -> None:
         self.tracking.set_obstacles(geom_ids)

@@ -37,9 +37,11 @@ from actors.envs.modes.movingcam.clip_cues import NECK_LINK
 from actors.character.features import RewardFeatures, obs_dim
 from actors.envs.modes.movingcam.targets import MovingcamTargets
 from actors.envs.modes.movingcam.termination import MovingcamTermination, MovingcamTerminationConfig
+from actors.envs.modes.movingcam.path_cue import PathCue
 from actors.envs.modes.movingcam.reward import MovingcamReward, MovingcamRewardConfig
 
 ENV_MODES = ("sfv", "movingcam")
+PATH_WEIGHT = 0.0  # off by default: see path_cue.py and docs/moving-camera-path.md for what was measured
 _OBSTACLE, _WALKER = 1, 2  # geom kinds for the collision rule (walker: links other than the flagged end effectors)
 
 
@@ -48,6 +50,8 @@ class MovingcamConfig:
     reward: MovingcamRewardConfig = field(default_factory=MovingcamRewardConfig, metadata={"help": "002 tracking reward weights and scales"})
     termination: MovingcamTerminationConfig = field(default_factory=MovingcamTerminationConfig, metadata={"help": "002 §5.2 early-termination thresholds"})
     hint_min_confidence: float = field(default=0.5, metadata={"help": "orientation-hint frames whose confidence is below this count neither in the reward nor in termination"})
+    path_weight: float = field(default=PATH_WEIGHT, metadata={"help": "weight of following the motion's estimated root path (root_path: observed ahead in the heading frame, paid by its confidence; actors/envs/modes/movingcam/path_cue.py); 0: off, as 002"})
+    path_scale: float = field(default=2.0, metadata={"help": "alpha of the path term on the squared gap between the centre of mass's horizontal velocity and the path's ((m/s)^2)"})
 
     def __post_init__(self):
         for name, kind in (("reward", MovingcamRewardConfig), ("termination", MovingcamTerminationConfig)):
@@ -83,7 +87,8 @@ class MovingcamTracking:
         e = len(self.targets.contact_links)
         self.reward = MovingcamReward(config.reward, batch, e, model.nu, model.nv - 6)
         self.termination = MovingcamTermination(config.termination, batch)
-        self.max_reward = config.reward.max_reward
+        self.path = PathCue(track, reference_obs_steps, config.path_weight, config.path_scale, batch)
+        self.max_reward = config.reward.max_reward + (self.path.weight if self.path.active else 0.0)
         # Walker geoms: which flagged end effector each belongs to, and which are other links.
         self._geom_contact = np.zeros((model.ngeom, e), dtype=bool)
         self._geom_body = np.zeros(model.ngeom, dtype=bool)
@@ -119,6 +124,7 @@ class MovingcamTracking:
         self._ref_rows = np.zeros((batch, self._ref_table.shape[1]))
         ref_start = obs_dim(humanoid.character) - 1  # the reference slots sit before the phase
         self._ref_cols = slice(ref_start, ref_start + self._ref_table.shape[1])
+        self._path_slots = (None, None)  # (observation buffer, its path-velocity slots (B, K, 2))
 
     def set_obstacles(self, geom_ids: tuple[int, ...]) -> None:
         """The scene's obstacle geoms (for the collision rule); () for a flat floor. Set by the env from its
@@ -163,14 +169,27 @@ class MovingcamTracking:
         np.arctan2(self._horizontal, up[:, 2], out=self._tilt)
         rewards = self.reward.batch(sim, ref, self._tilt, self._hint, self._hint_weight, self.contacts, self._flags,
                                     self.torque, terms)
+        if self.path.active:
+            rewards += self.path.reward(rows, com_velocity=features.com_vel)
         if check_termination:
             self.termination.check(com[:, 2], ref.com[:, 2], self.reward.pose_error, self.reward.orientation_gap, self.obstacle_hit)
         else:
             self.terminated[:] = False
         return rewards
 
-    def observe(self, rows: np.ndarray, out: np.ndarray) -> None:
-        """Write the root-free reference slots of the observations `out` (B, obs_dim)."""
+    def observe(self, rows: np.ndarray, out: np.ndarray, features=None) -> None:
+        """Write the root-free reference slots of the observations `out` (B, obs_dim); with the path
+        cue, the path's velocities ahead into their horizontal slots, turned by `features`' headings."""
         if self._ref_rows.shape[1]:
             np.take(self._ref_table, rows, axis=0, out=self._ref_rows)
             out[:, self._ref_cols] = self._ref_rows
+            if self.path.active:
+                self.path.observe(rows, features.heading(), self._path_view(out))
+
+    def _path_view(self, out: np.ndarray) -> np.ndarray:
+        """(B, K, 2) view of `out`'s reference-root x, y slots (made once per buffer)."""
+        if self._path_slots[0] is not out:
+            k = self._ref_table.shape[1] // 7
+            root = out[:, self._ref_cols.start:self._ref_cols.start + 3 * k].reshape(out.shape[0], k, 3)
+            self._path_slots = (out, root[..., :2])
+        return self._path_slots[1]
