@@ -113,9 +113,9 @@ def _report(outcome, args, motion_path: Path, video: str, say=print) -> dict:
     outcome.summary["files"] = files
     report = write_moving_report(outcome, args.out, {"video": str(args.video), "motion": str(motion_path)})
     for w in report["windows"]:
+        ret = w["training_normalized_return"]
         say(f"window {w['index']}: clip frames {w['start']}..{w['end']}, {w['samples'] or 0:,} samples, training return "
-            f"{w['training_normalized_return'] or float('nan'):.3f}, {w['rollouts_reaching_control_end']} rollouts "
-            "reached its control end")
+            f"{float('nan') if ret is None else ret:.3f}, {w['rollouts_reaching_control_end']} rollouts reached its control end")
     say(report["coverage"])
     say(f"report: {report['files']['report']} (MPJPE {report['mpjpe_mm']:.0f} mm, root travel {report['root_travel_m']:.2f} m)")
     say(report["outcome"])
