@@ -144,7 +144,7 @@ def command_line(args) -> str:
     if args.quick:
         parts.append("--quick")
     for name in ("repeats", "seconds", "physics_hz", "envs_per_worker", "system_iterations", "system_runners", "peer_python",
-                 "pose_video", "pose_models", "seed"):
+                 "pose_video", "pose_models", "seed", "scaling_workers", "scaling_runners"):
         value = getattr(args, name)
         default = getattr(defaults, name) if name in ("physics_hz", "envs_per_worker", "seed") else None
         if value is not None and value != default:
