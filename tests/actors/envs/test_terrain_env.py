@@ -129,3 +129,14 @@ def test_the_observation_layout_names_the_heightmap_block_last(walk):
     env = ImitationEnv(walk, EnvConfig(terrain="gaps"))
     layout = observation_layout(env.humanoid.character, len(env.config.reference_obs_steps), 0, 0, env.heightmap_dim)
     assert layout[-1]["name"] == "heightmap" and layout[-1]["start"] + layout[-1]["size"] == env.obs_dim == env.observation_space.shape[0]
+
+
+def test_an_episode_seed_gives_the_same_field_and_the_terrain_seed_another(walk):
+    def field(terrain_seed, seed):
+        env = ImitationEnv(walk, EnvConfig(terrain="mixed", terrain_seed=terrain_seed))
+        env.reset(seed=seed)
+        return env.model.hfield_data.copy()
+
+    same, again = field(1000, 4), field(1000, 4)
+    assert np.array_equal(same, again) and same.max() > same.min()
+    assert not np.array_equal(same, field(1000, 5)) and not np.array_equal(same, field(0, 4))
