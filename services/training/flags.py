@@ -132,6 +132,8 @@ ALIASES = (
           help="control steps ahead at which the policy observes the reference root (default 1,15); 'none' for SFV's observation"),
     Alias("--state-space", ("env.state_space",)),
     Alias("--scene", ("env.scene",), lambda text: None if text.strip().lower() == "none" else os.path.abspath(text), metavar="FILE.yaml"),
+    Alias("--terrain", ("env.terrain",), lambda text: None if text.strip().lower() == "none" else text, metavar="KIND"),
+    Alias("--terrain-difficulty", ("env.terrain_difficulty",), float, metavar="D"),
     Alias("--asi-std-scale", ("asi_initial_std_scale",), _positive(float)),
     Alias("--curriculum-samples", ("curriculum_samples",), _positive(int)),
     Alias("--no-root-sync", ("env.sync_root_per_cycle",), const=False,
