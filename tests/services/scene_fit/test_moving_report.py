@@ -53,9 +53,11 @@ def test_the_window_budget_is_the_moving_pipelines_own_default_and_a_flag_wins(t
     from services.scene_fit.budget import WINDOW_SAMPLES
 
     argv = ["pipeline", str(tmp_path / "v.mp4"), "--out", str(tmp_path / "o"), "--camera", "moving"]
-    assert _base_config(build_parser(argv).parse_args(argv), None).samples == WINDOW_SAMPLES
-    argv += ["--samples", "4096"]
-    assert _base_config(build_parser(argv).parse_args(argv), None).samples == 4096
+    config = _base_config(build_parser(argv).parse_args(argv), None)
+    assert config.samples == WINDOW_SAMPLES and config.env.movingcam.path_weight > 0  # the path cue on
+    argv += ["--samples", "4096", "--env.movingcam.path-weight", "0"]
+    config = _base_config(build_parser(argv).parse_args(argv), None)
+    assert config.samples == 4096 and config.env.movingcam.path_weight == 0.0
     assert WINDOW_SAMPLES > 200_000  # sfv train's quick default fell at frame 39 of 312 (issue 48)
 
 

@@ -41,7 +41,10 @@ from actors.envs.modes.movingcam.path_cue import PathCue
 from actors.envs.modes.movingcam.reward import MovingcamReward, MovingcamRewardConfig
 
 ENV_MODES = ("sfv", "movingcam")
-PATH_WEIGHT = 0.0  # off by default: see path_cue.py and docs/moving-camera-path.md for what was measured
+# Off in the env: its value bound (EnvConfig.max_reward, from the config alone) cannot tell
+# whether a motion carries root_path, and a motion without one trains as before, to the bit.
+# The moving pipeline turns it on (services/scene_fit/budget.py: 0.2, measured there).
+PATH_WEIGHT = 0.0
 _OBSTACLE, _WALKER = 1, 2  # geom kinds for the collision rule (walker: links other than the flagged end effectors)
 
 
