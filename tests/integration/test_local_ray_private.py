@@ -2,21 +2,19 @@
 local Ray that dies under a run is started again while the run goes on."""
 from __future__ import annotations
 
-import logging
 import os
-import signal
 import socket
+import subprocess
+import sys
 from pathlib import Path
-from types import SimpleNamespace
 
-import numpy as np
 import pytest
 
 from services.ray_session import local_ray_alive, start_local_ray
-from services.training.runners import RayRunner, WorkerFaults
 
 pytestmark = pytest.mark.integration
-RAY_AGENT_DEFAULT_PORT = 52365  # the dashboard agent's fixed port in Ray's own defaults
+RAY_AGENT_DEFAULT_PORT = 52365
+REPO = Path(__file__).resolve().parents[2]  # the dashboard agent's fixed port in Ray's own defaults
 
 
 def _hold_port(port: int) -> socket.socket | None:
@@ -54,40 +52,13 @@ def test_a_second_local_ray_takes_no_fixed_port_and_runs_workers_at_driver_prior
             held.close()
 
 
-class KillsItsRayletWorker:
-    """Worker 0 kills its raylet (its parent process) and itself on its first sample(), as the
-    whole local Ray goes when the out-of-memory killer takes the raylet; a file remembers that
-    it did, so the fresh Ray's worker answers."""
-
-    def __init__(self, spec, index: int):
-        self.marker, self.index = Path(spec["marker"]), index
-
-    def pid(self) -> int:
-        return os.getpid()
-
-    def sample(self, weights, version, steps, **options):
-        if self.index == 0 and not self.marker.exists():
-            self.marker.write_text(str(os.getppid()))
-            os.kill(os.getppid(), signal.SIGKILL)
-            os._exit(1)  # a result sent now would reach the driver directly, past the dead raylet
-        return {"worker_index": np.array(self.index), "worker_pid": np.array(os.getpid()),
-                "policy_version": np.array(version)}
-
-
-def test_a_local_ray_that_dies_is_started_again_and_the_iteration_collected_again(tmp_path, caplog):
-    import ray
-
-    config = SimpleNamespace(ray_address=None, workers=2, worker_timeout_s=60.0)
-    faults = WorkerFaults()
-    runner = RayRunner(config, KillsItsRayletWorker, faults)
-    try:
-        runner.start({"marker": str(tmp_path / "killed")})
-        with caplog.at_level(logging.WARNING, logger="sfv.train"):
-            results = runner.collect({}, 0, 1, {})
-        assert (tmp_path / "killed").exists()  # the raylet really was killed
-        assert sorted(int(r["worker_index"]) for r in results) == [0, 1]
-        assert faults.ray_restarts == 1
-        assert any("local Ray died" in r.getMessage() and "collected again" in r.getMessage() for r in caplog.records)
-        assert len(runner.collect({}, 1, 1, {})) == 2 and faults.ray_restarts == 1  # and it goes on
-    finally:
-        ray.shutdown()
+def test_a_training_whose_local_ray_dies_goes_on_from_the_iteration_it_was_in(tmp_path):
+    """The whole path: a Ray-runner training with its embedded gRPC ASI server; the raylet is
+    killed in iteration 2; the run starts a fresh local Ray and reaches its budget. In a child
+    process: a crash there (Ray and gRPC in one process) fails this test, not the session."""
+    done = subprocess.run([sys.executable, "-m", "tests.integration.ray_death_scenario", str(tmp_path)],
+                          capture_output=True, text=True, timeout=900, cwd=REPO)
+    assert done.returncode == 0, done.stderr[-2000:]
+    last = done.stdout.strip().splitlines()[-1]
+    assert last == "samples [256, 512, 768, 1024] ray_restarts 1 killed True", last
+    assert "the local Ray died" in done.stderr and "iteration 2 is collected again" in done.stderr
