@@ -2,6 +2,7 @@
 source of defaults and help text), less those the pipeline sets itself."""
 from __future__ import annotations
 
+from services.scene_fit.budget import WINDOW_SAMPLES
 from services.specs import run_spec
 
 # Training settings the pipeline sets itself: the motion is the reconstruction's; `--scene` is the
@@ -11,7 +12,7 @@ PIPELINE_SETS = frozenset({"motion", "env.scene"})
 # The static pipeline's own defaults: its registered run spec (services/specs/catalog.py says why).
 STATIC_DEFAULTS = dict(run_spec("pipeline-static", "pipeline").settings)
 PIPELINE_DEFAULT_TEXT = {
-    "samples": f"{STATIC_DEFAULTS['samples']} with a static camera, sfv train's per window with --camera moving",
+    "samples": f"{STATIC_DEFAULTS['samples']} with a static camera, {WINDOW_SAMPLES} per window with --camera moving",
     "first_frame_share": f"{STATIC_DEFAULTS['first_frame_share']} with a static camera, 0 with --camera moving",
 }
 
