@@ -56,18 +56,17 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     return parser
 
 
-def _run(args: argparse.Namespace) -> int:
+def _run(args: argparse.Namespace) -> tuple[int, str | None]:
+    """The handler's exit code, and the one `sfv: ...` line to print last (after whatever native
+    output a failed command shows), or None."""
     try:
-        return int(args.handler(args) or 0)
+        return int(args.handler(args) or 0), None
     except SfvError as exc:
-        print(f"sfv: {exc}", file=sys.stderr)
-        return 2
+        return 2, f"sfv: {exc}"
     except TrainingStopped as exc:  # a stop signal, the checkpoint written
-        print(f"sfv: {exc}", file=sys.stderr)
-        return exc.exit_code
+        return exc.exit_code, f"sfv: {exc}"
     except KeyboardInterrupt:
-        print("sfv: interrupted", file=sys.stderr)
-        return 130
+        return 130, "sfv: interrupted"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -82,13 +81,15 @@ def main(argv: list[str] | None = None) -> int:
     defuse_unusable_backend()
     args = build_parser(argv).parse_args(argv)
     routed = not verbose and ROUTE.start()  # native library output (fd 2) to the run's log
-    code = 1
+    code, message = 1, None
     try:
-        code = _run(args)
+        code, message = _run(args)
         return code
     finally:
         if routed:
             ROUTE.stop(failed=code != 0)
+        if message is not None:  # the error line last, below the library's own words
+            print(message, file=sys.stderr)
 
 
 if __name__ == "__main__":
