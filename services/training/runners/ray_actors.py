@@ -104,7 +104,6 @@ class RayRunner(WorkerRunner):
 
     def _poll_once(self, timeout):
         import ray
-        from ray.exceptions import RayError, RayTaskError
 
         pending = self._async_pending
         ready, _ = ray.wait(list(pending), num_returns=1, timeout=timeout)
@@ -119,19 +118,9 @@ class RayRunner(WorkerRunner):
         done = []
         for ref in ready:
             index = pending.pop(ref)
-            try:
-                result = ray.get(ref)
-            except RayTaskError as exc:
-                cause = getattr(exc, "cause", None)
-                if isinstance(cause, SfvError):
-                    raise SfvError(f"rollout worker {index}: {cause}") from None
-                self._lost(index, f"{type(cause or exc).__name__}: {str(cause or exc).splitlines()[0][:200]}")
-                result = None
-            except RayError as exc:
-                if not local_ray_alive():
-                    raise LocalRayDied(type(exc).__name__) from None
-                self._lost(index, type(exc).__name__)
-                result = None
+            result, reason = _fetch_share(ref, index)
+            if result is None:
+                self._lost(index, reason)
             done.append((index, result))
         if any(result is None for _, result in done):
             self._count_restarts()
@@ -255,21 +244,10 @@ class _Iteration:
         return self.results
 
     def _receive(self, ref) -> None:
-        import ray
-        from ray.exceptions import RayError, RayTaskError
-
         index = self.pending.pop(ref)
-        try:
-            result = ray.get(ref)
-        except RayTaskError as exc:
-            cause = getattr(exc, "cause", None)
-            if isinstance(cause, SfvError):  # a refused request or a lasting outage: not the worker's fault
-                raise SfvError(f"rollout worker {index}: {cause}") from None
-            self.lost(index, f"{type(cause or exc).__name__}: {str(cause or exc).splitlines()[0][:200]}")
-        except RayError as exc:  # the process died (Ray restarts it) or its result was lost
-            if not local_ray_alive():  # not the worker: the whole local Ray went (the runner restarts it)
-                raise LocalRayDied(type(exc).__name__) from None
-            self.lost(index, type(exc).__name__)
+        result, reason = _fetch_share(ref, index)
+        if result is None:
+            self.lost(index, reason)
         else:
             self.results.append(result)
             if self.orphans:  # this worker is free now: it takes over a lost share
@@ -277,6 +255,26 @@ class _Iteration:
                 self.submit(index)
             else:
                 self.idle.append(index)
+
+
+def _fetch_share(ref, index: int) -> tuple[dict | None, str]:
+    """A worker's finished share, or (None, why it was lost). A worker's SfvError (a refused
+    request, a lasting ASI outage: not the worker's fault) stops training; a dead local Ray
+    raises LocalRayDied for the runner to start it again."""
+    import ray
+    from ray.exceptions import RayError, RayTaskError
+
+    try:
+        return ray.get(ref), ""
+    except RayTaskError as exc:
+        cause = getattr(exc, "cause", None)
+        if isinstance(cause, SfvError):
+            raise SfvError(f"rollout worker {index}: {cause}") from None
+        return None, f"{type(cause or exc).__name__}: {str(cause or exc).splitlines()[0][:200]}"
+    except RayError as exc:  # the process died (Ray restarts it) or its result was lost
+        if not local_ray_alive():  # not the worker: the whole local Ray went
+            raise LocalRayDied(type(exc).__name__) from None
+        return None, type(exc).__name__
 
 
 def _first_line(exc: BaseException) -> str:
