@@ -60,6 +60,7 @@ class TaskTrainer(Trainer):
                 return self._loop(learner, metrics, 0)
         finally:
             metrics.close()
+            self.close()
 
     def _record(self, batch, losses, n, seconds, sample_seconds, asi_version) -> dict:
         record = super()._record(batch, losses, n, seconds, sample_seconds, asi_version)

@@ -141,9 +141,10 @@ class Trainer:
 
     # -------------------------------------------------------------------- run
     def close(self) -> None:
-        """Stop the workers the runner started (the processes runner's; Ray actors go with Ray)."""
+        """Stop the workers the runner started (processes, Ray actors); a second call does nothing."""
         if self.runner is not None:
             self.runner.close()
+            self.runner = None
 
     def __enter__(self) -> "Trainer":
         return self
@@ -186,6 +187,7 @@ class Trainer:
                     return self._loop(learner, metrics, max(asi_version, info.version))
             finally:
                 metrics.close()
+                self.close()  # the workers stop before their ASI server does
 
     def _restore(self, learner: PPOLearner, checkpoint: dict) -> int:
         """Learner state and counters from a checkpoint; metrics rows after it are dropped. Returns its ASI version."""

@@ -126,6 +126,22 @@ class RayRunner(WorkerRunner):
             self._count_restarts()
         return done
 
+    def close(self) -> None:
+        """Kill this run's workers and spec holder now. Left to Ray's reference counting, an
+        asynchronous run's actors outlived it (their handles sit in a reference cycle with the
+        in-flight shares) and held the CPUs the next run's workers waited for, forever."""
+        import ray
+
+        actors = list(getattr(self, "workers", [])) + [a for a in [getattr(self, "_spec_holder", None)] if a is not None]
+        self.workers, self._spec_holder, self._async_pending = [], None, {}
+        if not ray.is_initialized():
+            return
+        for actor in actors:
+            try:
+                ray.kill(actor, no_restart=True)
+            except Exception as exc:  # noqa: BLE001  (an actor already gone, a Ray shutting down)
+                log.debug("could not kill a Ray actor at close (%s)", exc)
+
     def _lost(self, index: int, reason: str) -> None:
         self.faults.failures += 1
         log.warning("rollout worker %d failed (%s); it is handed a new share", index, reason)
