@@ -46,7 +46,21 @@ class PoseConfig:
         "help": "longest gap (seconds) across which a track that ended is continued by a new one"})
     relink_limit: float = field(default=0.3, metadata={
         "help": "mean 2D keypoint distance, as a fraction of the ROI side, between the last answer before a "
-                "gap and the first after it for the two tracks to be one identity"})
+                "gap (moved on at its last speed) and the first after it for the two tracks to be one identity"})
+    relink_max_gap_s: float = field(default=3.0, metadata={
+        "help": "longest gap (seconds) across which a track is continued when its clothes match too "
+                "(gaps over relink_gap_s need an appearance match)"})
+    relink_spread_per_s: float = field(default=0.5, metadata={
+        "help": "how much the position tolerance grows (ROI sides per second of gap beyond relink_gap_s): "
+                "a hidden person may turn or change speed"})
+    appearance_limit: float = field(default=0.5, metadata={
+        "help": "Hellinger distance of two tracks' clothes colours above which they are two people "
+                "(Pose2Sim two-people: one person's halves .06-.21, the two people .88-.98)"})
+    switch_limit: float = field(default=0.65, metadata={
+        "help": "appearance distance from a track's first answers above which (for switch_rows answers in "
+                "a row) the track has slid onto someone else and is cut there (one person: at most .51)"})
+    switch_rows: int = field(default=3, metadata={
+        "help": "answers in a row past switch_limit that cut a track"})
     chunk_frames: int = field(default=50, metadata={
         "help": "frames per Ray task (also the chunking of the serial path, so both give the same answer)"})
     num_threads: int = field(default=1, metadata={

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from services.pose.appearance import APPEARANCE_BINS
 from services.pose.camera_motion import CameraMotionEstimator
 from services.pose.config import PoseConfig
 from services.pose.landmarks import NUM_BODY_LANDMARKS
@@ -32,6 +33,11 @@ class PeopleRows:
     presence: np.ndarray       # (N,) float32
     rotation_used: np.ndarray  # (N,) int16 degrees
     roi_size: np.ndarray       # (N,) float32 side of the ROI the answer came from, pixels
+    appearance: np.ndarray | None = None  # (N, APPEARANCE_BINS) float32 clothes' colours (`appearance.py`); zeros: unknown
+
+    def __post_init__(self):
+        if self.appearance is None:  # a table built without frames (tests, old callers): appearance unknown
+            self.appearance = np.zeros((len(self.frame), APPEARANCE_BINS), np.float32)
 
     @classmethod
     def from_estimates(cls, rows: list[tuple[int, PersonEstimate]]) -> PeopleRows:
@@ -50,6 +56,8 @@ class PeopleRows:
             presence=np.array([p.presence for p in poses], np.float32),
             rotation_used=np.array([e.rotation_degrees for _, e in rows], np.int16),
             roi_size=np.array([p.roi.size for p in poses], np.float32),
+            appearance=np.array([e.appearance if e.appearance is not None else np.zeros(APPEARANCE_BINS)
+                                 for _, e in rows], np.float32).reshape(len(rows), APPEARANCE_BINS),
         )
 
     def select(self, mask: np.ndarray) -> PeopleRows:

@@ -9,7 +9,7 @@ import numpy as np
 
 from learner.errors import SfvError
 from services.pose.config import PoseConfig
-from services.pose.identity import link_chunks, relink_gaps
+from services.pose.identity import link_chunks, relink_gaps, split_switches
 from services.pose.models import resolve_model_files
 from services.pose.people import PeopleEstimator
 from services.pose.people_chunk import estimate_people_chunk
@@ -57,7 +57,7 @@ def estimate_people(path: str | Path, models_dir: str | Path | None = None, use_
     decoded = sum(c.decoded for c in kept)
     if decoded == 0:
         raise SfvError(f"{info.path}: video has no decodable frames" + (f" in --frames {first}:{stop}" if first else ""))
-    rows = relink_gaps(link_chunks(kept, config), info.fps, config)
+    rows = relink_gaps(split_switches(link_chunks(kept, config), config), info.fps, config)
     return PeopleTrack(fps=info.fps, image_size=(info.width, info.height), start_frame=first,
                        frame_count=decoded, rows=rows,
                        camera_homography=np.concatenate([c.camera_homography for c in kept]),
