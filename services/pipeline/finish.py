@@ -8,7 +8,8 @@
                        takes it), with the reconstruction's camera and the simulated joints
     simulated.bvh      the same motion as BVH
     video.mp4          the video with its keypoints | the reference humanoid | the simulated one,
-                       both through the reconstruction's camera, captions with frame and fall state
+                       both through the reconstruction's camera, captions with frame and fall state,
+                       report.json's outcome line under every frame
     overlay_strip.png  the simulated humanoid over video frames through that camera
     report.json        fall, return, joint error, skating, penetration, reprojection (`report.py`)
 
@@ -76,7 +77,7 @@ def finish_static_run(out: Path, video: Path, motion_path: Path, run_dir: Path, 
     say(f"simulated motion as BVH: {files['bvh']}")
     with _bar(progress, rollout.frames, "render") as bar:
         frames = render_pipeline_video(rollout, reconstruction, env.humanoid, video, out / VIDEO_FILE, first, height,
-                                       lambda done, total: bar.update(done - bar.n))
+                                       lambda done, total: bar.update(done - bar.n), outcome=report["outcome"])
     files["video"] = str(out / VIDEO_FILE)
     say(f"video beside reference and simulation: {files['video']} ({frames} frames at {rollout.control_hz:g} fps)")
     files["overlay_strip"] = str(overlay_strip(rollout, reconstruction, env.humanoid, video, out / STRIP_FILE, first,

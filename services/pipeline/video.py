@@ -28,7 +28,7 @@ from services.pipeline.metrics import project_points
 from services.pipeline.report import video_rows
 from services.pipeline.rollout import FirstFrameRollout, body_kinematics
 from services.reconstruction.keypoints import JOINT_KEYPOINTS
-from services.render.caption import PUSH_RED, WHITE, draw_lines
+from services.render.caption import PUSH_RED, WHITE, draw_lines, text_band
 from services.render.keypoint_overlay import MODEL_COLOUR, draw_keypoints
 
 CAMERA_EXTRAS = ("camera_rotation", "camera_position", "camera_intrinsics", "image_size", "keypoints2d", "confidence")
@@ -120,8 +120,9 @@ def _video_geometry(reconstruction: ReferenceMotion, video: Path, height: int):
 
 def render_pipeline_video(rollout: FirstFrameRollout, reconstruction: ReferenceMotion, humanoid, video: Path,
                           out: Path, first_frame: int = 0, height: int = 480,
-                          on_frame: Callable[[int, int], None] | None = None) -> int:
-    """Write the three-panel MP4 atomically at the control rate; returns the frames written."""
+                          on_frame: Callable[[int, int], None] | None = None, outcome: str | None = None) -> int:
+    """Write the three-panel MP4 atomically at the control rate, `outcome` (report.json's line:
+    completed, or the first cause found) in a band under every frame; returns the frames written."""
     from services.render.video_writer import AtomicVideoWriter
 
     check_camera(reconstruction, "motion")
@@ -135,6 +136,7 @@ def render_pipeline_video(rollout: FirstFrameRollout, reconstruction: ReferenceM
     projected = project_points(body_kinematics(humanoid, rollout.qpos[:len(rows)]).joints, extras["camera_rotation"],
                                extras["camera_position"], extras["camera_intrinsics"])
     camera = _CameraView(humanoid.model, reconstruction, width, height)
+    band = [text_band(outcome, 3 * width, height / 700.0)] if outcome else []
     frames = {}
     try:
         with AtomicVideoWriter(out, hz) as writer:
@@ -154,7 +156,7 @@ def render_pipeline_video(rollout: FirstFrameRollout, reconstruction: ReferenceM
                 fell = rollout.fell_at_step is not None and k >= rollout.fell_at_step
                 state = (f"fell at {rollout.fell_at_s:.2f} s", PUSH_RED) if fell else ("upright", WHITE)
                 draw_lines(simulated, [("simulated", WHITE), (f"t {k / hz:.2f} s", WHITE), state])
-                writer.append(np.concatenate((left, reference, simulated), axis=1))
+                writer.append(np.concatenate([np.concatenate((left, reference, simulated), axis=1)] + band, axis=0))
                 if on_frame is not None:
                     on_frame(k + 1, len(rows))
             frames = writer.frames

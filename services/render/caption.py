@@ -33,3 +33,25 @@ def draw_lines(frame: np.ndarray, lines: list[tuple[str, tuple[int, int, int]]],
         cv2.putText(frame, text, (x, y), FONT, scale, colour, thickness, cv2.LINE_AA)
         y += line_height
     return frame
+
+
+def text_band(text: str, width: int, scale: float, colour=WHITE) -> np.ndarray:
+    """A black band `width` pixels wide with `text` word-wrapped onto as many lines as it needs
+    (a result line under a video: it covers none of the picture)."""
+    thickness = max(1, round(scale * 1.5))
+    line_height = int(round(30 * scale + 4))
+    margin = int(round(10 * scale + 2))
+    lines, current = [], ""
+    for word in text.split():
+        candidate = f"{current} {word}".strip()
+        if current and cv2.getTextSize(candidate, FONT, scale, thickness)[0][0] > width - 2 * margin:
+            lines.append(current)
+            current = word
+        else:
+            current = candidate
+    lines.append(current)
+    rows = line_height * len(lines) + line_height // 3
+    band = np.zeros((rows + rows % 2, width, 3), np.uint8)  # even: H.264 wants even frame sides
+    for n, line in enumerate(lines):
+        cv2.putText(band, line, (margin, line_height * (n + 1)), FONT, scale, colour, thickness, cv2.LINE_AA)
+    return band

@@ -142,11 +142,17 @@ def test_the_video_and_strip_have_the_expected_frames(finished):
 
     root, report, _ = finished
     capture = cv2.VideoCapture(str(root / "video.mp4"))
-    count = 0
-    while capture.read()[0]:
-        count += 1
+    count, last = 0, None
+    while True:
+        ok, frame = capture.read()
+        if not ok:
+            break
+        count, last = count + 1, frame
     assert count == report["frames"]
     assert capture.get(cv2.CAP_PROP_FRAME_WIDTH) == 3 * 320  # three panels of the 160x240 video scaled to 480 high
+    # report.json's outcome line in a band under the panels: text in it, nothing drawn over the pictures
+    band = last[480:]
+    assert 20 <= band.shape[0] <= 120 and (band.max(axis=-1) > 128).mean() > 0.01
     strip = cv2.imread(str(root / "overlay_strip.png"))
     assert strip.shape[:2] == (480, 6 * 320)  # six frames
 
