@@ -164,16 +164,35 @@ def _num(value, digits: int = 1) -> str:
 def run_videos_suite(videos: list[Path], runs_dir: Path, out: Path, log) -> dict:
     """Every video's row, written to `out` after each video (atomically), so a stopped suite
     keeps what it measured."""
-    rows = []
+    rows = _earlier_rows(out, videos, log)
     document = {"suite": "videos", "runs_dir": str(runs_dir), "rows": rows}
     for video in videos:
         run = runs_dir / run_name(video)
         minutes = run_pipeline(video, run, log)
         rows.append(video_row(video, run, minutes, out.with_name(f"{out.stem}_{run_name(video)}.png")))
+        rows.sort(key=lambda r: r["video"])
         document["completed"] = sum(not r["fell"] for r in rows)
         atomic_write_json(out, document)
         log(f"{run_name(video)}: {rows[-1]['outcome']}")
     return document
+
+
+def _earlier_rows(out: Path, videos: list[Path], log) -> list[dict]:
+    """The rows `out` already holds for videos not run now: the table grows a video at a time
+    (a pipeline run is 30-55 minutes on 2 cores), a video run again replaces its row."""
+    if not out.is_file():
+        return []
+    try:
+        earlier = json.loads(out.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise SfvError(f"{out}: not a videos suite result to add to ({exc}); give another --out") from None
+    if earlier.get("suite") != "videos" or not isinstance(earlier.get("rows"), list):
+        raise SfvError(f"{out}: not a videos suite result to add to; give another --out")
+    now = {str(v) for v in videos}
+    kept = [r for r in earlier["rows"] if r.get("video") not in now]
+    if kept:
+        log(f"{out}: keeping its {len(kept)} row(s) of other videos")
+    return kept
 
 
 def run_videos_command(args) -> int:

@@ -73,6 +73,29 @@ def test_the_suite_measures_finished_runs_and_writes_one_row_per_video(tmp_path,
     assert "fell at 0.20 s" in markdown(rows)
 
 
+def test_the_table_grows_a_video_at_a_time_and_a_video_run_again_replaces_its_row(tmp_path):
+    videos = tmp_path / "clips"
+    videos.mkdir()
+    for name in ("a.mp4", "b.mp4"):
+        (videos / name).write_bytes(b"")
+    runs, out = tmp_path / "runs", tmp_path / "videos.json"
+    _finished_run(runs / "clips_a", fell=False)
+    _finished_run(runs / "clips_b", fell=True)
+    for name in ("b.mp4", "a.mp4"):
+        assert main(["bench", "--suite", "videos", "--videos", str(videos / name), "--runs-dir", str(runs), "--out",
+                     str(out), "--quiet"]) == 0
+    document = json.loads(out.read_text())
+    assert [r["run"].split("/")[-1] for r in document["rows"]] == ["clips_a", "clips_b"] and document["completed"] == 1
+    (runs / "clips_b" / "report.json").write_text((runs / "clips_a" / "report.json").read_text())  # b now completes
+    assert main(["bench", "--suite", "videos", "--videos", str(videos / "b.mp4"), "--runs-dir", str(runs), "--out",
+                 str(out), "--quiet"]) == 0
+    document = json.loads(out.read_text())
+    assert len(document["rows"]) == 2 and document["completed"] == 2
+    out.write_text(json.dumps({"suite": "env", "rows": []}))
+    assert main(["bench", "--suite", "videos", "--videos", str(videos / "b.mp4"), "--runs-dir", str(runs), "--out",
+                 str(out), "--quiet"]) == 2
+
+
 def test_bad_input_is_one_line(tmp_path, capsys):
     assert main(["bench", "--suite", "videos", "--videos", str(tmp_path / "none.mp4"), "--out",
                  str(tmp_path / "v.json")]) == 2
