@@ -6,7 +6,11 @@ that reached their first target within the horizon), time_to_target_s (mean seco
 first target over those that did), fall_rate, targets_per_episode, return_mean,
 episode_seconds, and pose_log_density: the mean log-density of every pose the character held
 under the expert clips' pose prior (`pose_prior.py`; higher is more human-like), beside
-pose_log_density_experts, the same score of the clips' own frames (the human reference).
+pose_log_density_experts, the same score of the clips' own frames (the human reference); and
+motion_distance, the mean distance of each third of a second of movement to its nearest mocap
+window (`motion_likeness.py`; lower is more human-like), beside motion_distance_lines (a clip
+held out of the library; standing still). The pose density ranks standing above the mocap; the
+motion distance does not.
 """
 from __future__ import annotations
 
@@ -15,15 +19,16 @@ import numpy as np
 
 from actors.envs.tasks.vector_task_env import VectorTaskEnv
 from learner.policy import NumpyPolicy
+from services.tasks.motion_likeness import MotionLibrary
 from services.tasks.pose_prior import PosePrior, clip_poses
 
 
-def run_episodes(env: VectorTaskEnv, policy: NumpyPolicy) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """Each env's first episode from `env.reset()`: (per-episode arrays, (N, 28) poses held)."""
+def run_episodes(env: VectorTaskEnv, policy: NumpyPolicy) -> tuple[dict[str, np.ndarray], list[np.ndarray]]:
+    """Each env's first episode from `env.reset()`: (per-episode arrays, each episode's (T, 28) poses)."""
     n = env.num_envs
     first: dict[str, list] = {}
     done = np.zeros(n, bool)
-    poses = []
+    poses: list[list[np.ndarray]] = [[] for _ in range(n)]
     obs = env.reset()
     env.episodes.drain()
     while not done.all():
@@ -37,19 +42,23 @@ def run_episodes(env: VectorTaskEnv, policy: NumpyPolicy) -> tuple[dict[str, np.
         for i in np.flatnonzero(~done & ~ended):  # the pose after this step (ended envs were reset already)
             data = env.datas[i]
             mujoco.mj_transmission(env.model, data)
-            poses.append(data.actuator_length.copy())
+            poses[i].append(data.actuator_length.copy())
         done |= ended
-    return {k: np.asarray(v) for k, v in first.items()}, np.asarray(poses).reshape(-1, env.model.nu)
+    sequences = [np.asarray(p).reshape(-1, env.model.nu) for p in poses]
+    return {k: np.asarray(v) for k, v in first.items()}, sequences
 
 
-def evaluate_task(env_config, weights: dict, episodes: int = 32, seed: int = 0, prior: PosePrior | None = None) -> dict:
+def evaluate_task(env_config, weights: dict, episodes: int = 32, seed: int = 0, prior: PosePrior | None = None,
+                  library: MotionLibrary | None = None) -> dict:
     from threadpoolctl import threadpool_limits
 
     prior = prior or PosePrior.fit()
+    library = library or MotionLibrary.fit()
     env = VectorTaskEnv(env_config, episodes, seed=seed)
     policy = NumpyPolicy(weights, max_batch=episodes)
     with threadpool_limits(1, user_api="blas"):
-        per_episode, poses = run_episodes(env, policy)
+        per_episode, sequences = run_episodes(env, policy)
+    poses = np.concatenate(sequences)
     successes = per_episode["successes"].astype(bool)
     times = per_episode["first_success_s"].astype(float)
     experts = np.concatenate([prior.log_density(clip_poses(clip)) for clip in prior.clips])
@@ -64,4 +73,6 @@ def evaluate_task(env_config, weights: dict, episodes: int = 32, seed: int = 0, 
         "pose_log_density": float(prior.log_density(poses).mean()) if len(poses) else None,
         "pose_log_density_experts": float(experts.mean()),
         "pose_prior": f"mixture of one Gaussian per clip ({len(prior.clips)} humanoid3d clips)",
+        "motion_distance": library.score(sequences),
+        "motion_distance_lines": library.reference_distances(),
     }

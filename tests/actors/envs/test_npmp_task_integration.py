@@ -47,6 +47,8 @@ def test_two_tiny_experts_distilled_then_one_task_iteration(tmp_path, capsys):
     assert main(["task", "eval", str(run), "--episodes", "2"]) == 0
     figures = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert 0.0 <= figures["success_rate"] <= 1.0 and figures["pose_log_density"] is not None
+    lines = figures["motion_distance_lines"]
+    assert lines["standing_still"] < lines["mocap_held_out"] and "motion_distance" in figures
 
 
 def test_latent_actions_drive_the_character_with_the_decoder(tmp_path):
