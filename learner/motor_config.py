@@ -28,6 +28,10 @@ class MotorModuleConfig:
     decoder_hidden: tuple[int, ...] = field(default=(512, 512), metadata={"help": "decoder MLP hidden sizes, ELU (smooth in z, which a task policy explores)"})
     init_action_std: float = field(default=0.5, metadata={"help": "initial std of the decoder's Gaussian, in units of each target's dataset std (learned, state-independent)"})
     min_action_std: float = field(default=0.01, metadata={"help": "floor of the decoder's std in the same units (keeps the log-likelihood bounded)"})
+    learn_action_std: bool = field(default=True, metadata={"help": "learn the decoder's std; off: it stays at init_action_std. The "
+                                                            "reconstruction term scales as 1/std^2, so a learned std that shrinks to the floor "
+                                                            "makes beta's KL weight 2,500x weaker than at std .5 (MoCapAct fixes it, at .1 of the "
+                                                            "action range, with beta .1)"})
     input_clip: float = field(default=10.0, metadata={"help": "clip normalised encoder and decoder inputs to +-this"})
     lr: float = field(default=3e-4, metadata={"help": "Adam learning rate"})
     window: int = field(default=10, metadata={"help": "consecutive steps per training sequence (BPTT through z_t-1 -> z_t)"})

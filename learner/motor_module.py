@@ -6,7 +6,8 @@
   marginal N(0, sigma^2 I), which is also the prior of the first step of a sequence.
 - Decoder pi(a_t | s_t, z_t) = N(mu(s_t, z_t), diag(std^2)): an ELU MLP of the normalised
   proprioception (`actors/envs/tasks/proprioception.py`, no reference) and z_t; mu is the absolute PD
-  targets (rad) the env writes into ctrl; the std is learned, state-independent.
+  targets (rad) the env writes into ctrl; the std is state-independent, learned or fixed
+  (`learn_action_std`).
 - Loss per step = -log pi(a*_t | s_t, z_t) + beta KL(q || p), a*_t the targets of the expert's
   mean action, z_t ~ q by reparameterisation; KL analytic between diagonal Gaussians; averaged
   over the B x W steps of B windows of W consecutive steps, z carried through the window (BPTT).
@@ -74,7 +75,8 @@ class MotorModule(nn.Module):
         self.config = c = config
         self.encoder = elu_mlp(c.future_dim + c.latent_dim, c.encoder_hidden, 2 * c.latent_dim, generator)
         self.decoder = elu_mlp(c.proprio_dim + c.latent_dim, c.decoder_hidden, c.action_dim, generator)
-        self.action_log_std = nn.Parameter(torch.full((c.action_dim,), math.log(c.init_action_std)))
+        self.action_log_std = nn.Parameter(torch.full((c.action_dim,), math.log(c.init_action_std)),
+                                           requires_grad=c.learn_action_std)
         for name, dim in (("proprio", c.proprio_dim), ("future", c.future_dim), ("target", c.action_dim)):
             self.register_buffer(f"{name}_mean", torch.zeros(dim))
             self.register_buffer(f"{name}_std", torch.ones(dim))

@@ -89,6 +89,22 @@ def test_loss_decreases_on_a_tiny_synthetic_dataset():
     assert float(after["rmse"]) < 0.6 * float(before["rmse"])  # the targets' first column needs the encoder's z
 
 
+def test_a_fixed_decoder_std_stays_put_while_a_learned_one_moves():
+    rng = np.random.default_rng(5)
+    for learn in (True, False):
+        torch.manual_seed(0)
+        module = small_module(encoder_hidden=(32,), decoder_hidden=(32,), learn_action_std=learn, init_action_std=0.3)
+        optimiser = torch.optim.Adam(module.parameters(), lr=3e-3)
+        gen = torch.Generator().manual_seed(4)
+        for _ in range(100):
+            loss = module.sequence_loss(*synthetic_sequences(rng, 32, 4), gen)["loss"]
+            optimiser.zero_grad()
+            loss.backward()
+            optimiser.step()
+        std = module.normalised_action_std().detach()
+        assert torch.allclose(std, torch.full_like(std, 0.3)) != learn
+
+
 def test_numpy_and_onnx_decoders_equal_the_torch_decoder(tmp_path):
     pytest.importorskip("onnxruntime")
     from learner.motor_decoder_onnx import OnnxLatentDecoder, export_decoder_onnx
