@@ -124,17 +124,25 @@ def _steps(xs, d, rng, h0, profile, support) -> float:
 
 
 def _gaps(xs, d, rng, h0, profile, support) -> float:
-    """Ground at h0 cut by trenches U(0.5, 1) x 40 cm x d wide, 1.5-3.5 m apart."""
+    """Ground at h0 cut by trenches U(0.5, 1) x 40 cm x d wide, 1.5-3.5 m apart.
+
+    The field's heights are its vertices and MuJoCo joins them by triangles, so k sunk vertices
+    open a gap (k + 1) cells wide at the surface: a gap of width w sinks round(w / cell) - 1
+    vertices, and one narrower than 1.5 cells is not cut. Sinking ceil(w / cell) had made every
+    gap of 1-10 cm (difficulty up to .25) a V-notch 20 cm wide and 1 m deep: the walk trained on
+    `mixed` fell in 44 % of the episodes at difficulty .1 and its curriculum stalled there."""
     profile[:] = h0
     support[:] = h0
+    cell = float(xs[1] - xs[0]) if len(xs) > 1 else 1.0
     i, n = 0, len(xs)
     while i < n:
         i = np.searchsorted(xs, xs[i] + rng.uniform(1.5, 3.5))
         if i >= n:
             break
-        end = np.searchsorted(xs, xs[i] + rng.uniform(0.5, 1.0) * MAX_GAP_M * d)
-        profile[i:end] = h0 - TRENCH_DEPTH
-        i = max(end, i + 1)
+        sunk = int(round(rng.uniform(0.5, 1.0) * MAX_GAP_M * d / cell)) - 1
+        if sunk > 0:
+            profile[i:i + sunk] = h0 - TRENCH_DEPTH
+        i += max(sunk, 1)
     return h0
 
 

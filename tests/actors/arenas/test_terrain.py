@@ -53,11 +53,28 @@ def test_steps_at_difficulty_one_rise_up_to_fifteen_centimetres():
     assert rises.max() <= MAX_STEP_M + 1e-9 and rises.max() > 0.1 and len(rises) >= 10
 
 
-def test_gaps_at_difficulty_one_are_trenches_up_to_forty_centimetres():
-    down = _profile("gaps") < -0.5 * TRENCH_DEPTH
+def _gap_openings(grid, difficulty, seed=11):
+    """Each trench's width at the surface: k sunk vertices open k + 1 cells (MuJoCo's triangles)."""
+    heights = np.zeros((grid.rows, grid.cols))
+    generate("gaps", difficulty, np.random.default_rng(seed), grid, heights)
+    down = heights[0] < -0.5 * TRENCH_DEPTH
     edges = np.flatnonzero(np.diff(down.astype(int)))
-    widths = (edges[1::2] - edges[0::2]) * GRID.cell
-    assert len(widths) >= 5 and widths.max() <= MAX_GAP_M + 1e-9 and widths.max() > 0.3
+    return (edges[1::2] - edges[0::2] + 1) * grid.cell
+
+
+def test_gaps_at_difficulty_one_are_trenches_up_to_forty_centimetres():
+    widths = _gap_openings(GRID, 1.0)
+    assert len(widths) >= 5 and widths.max() <= MAX_GAP_M + GRID.cell / 2 + 1e-9 and widths.max() > 0.3
+
+
+@pytest.mark.parametrize("cell", [0.05, 0.1])
+def test_a_gap_narrower_than_a_cell_and_a_half_is_not_cut(cell):
+    """On the training field's 10 cm cells, gaps of difficulty .1 (2-4 cm) had become 20 cm V-notches 1 m deep."""
+    grid = TerrainGrid(x0=-3.0, y0=-2.0, cols=int(35 / cell), rows=5, cell=cell)
+    narrow = 0.9 * 1.5 * cell / MAX_GAP_M  # the widest gap drawn is 0.9 x 1.5 cells
+    assert len(_gap_openings(grid, narrow)) == 0
+    widths = _gap_openings(grid, 1.0)
+    assert len(widths) >= 5 and widths.min() >= 2 * cell - 1e-9 and widths.max() <= MAX_GAP_M + cell / 2 + 1e-9
 
 
 def test_the_first_metre_of_the_path_stays_flat_for_the_first_frame():
