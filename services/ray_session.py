@@ -38,7 +38,7 @@ from learner.errors import SfvError
 from services.console import is_verbose
 
 _REPO_ROOT = Path(__file__).resolve().parents[1]
-LOCAL_START_ATTEMPTS = 2
+LOCAL_START_ATTEMPTS = 4
 WORKER_NICENESS = 0  # Ray's default is 15: see the module docstring
 log = logging.getLogger("sfv.ray")
 

@@ -34,6 +34,7 @@ from learner.errors import NonFiniteError, SfvError, TrainingStopped
 from learner.ppo import PPOLearner
 from learner.schedule import linear_anneal
 from learner.tuple_sampling import select_tuples
+from services.ray_session import connect_ray
 from services.training.asi_connection import ASIConnection
 from services.training.async_collector import AsyncCollector
 from services.training.config import TrainConfig
@@ -166,6 +167,11 @@ class Trainer:
         if checkpoint is not None:
             asi_version = self._restore(learner, checkpoint)
         learner.set_progress(self.samples)
+        if config.runner == "ray" and not (config.ray_address or config.asi_address or config.redis_url):
+            # A local Ray before the embedded ASI server: Ray forks its GCS and raylet (with a
+            # preexec_fn, so Python runs in the child), and a fork while the server's gRPC threads
+            # run crashed the child now and then; twice in a row failed a clean-clone test run.
+            connect_ray(None, num_cpus=max(config.workers, 1))
         # The ASI server (and its Redis) first: a wrong address fails in seconds, before Ray starts.
         with ASIConnection(config) as asi:
             info = asi.create_job(ref_states, ref_phases)
