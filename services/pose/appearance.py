@@ -46,7 +46,8 @@ def appearance_signature(frame_rgb: np.ndarray, keypoints: np.ndarray, visibilit
     seen = np.asarray(visibility) >= MIN_VISIBILITY
     if not seen[list(SHOULDERS + HIPS + KNEES)].any():
         return np.zeros(APPEARANCE_BINS, np.float32)
-    # Only the crop around shoulders, hips and knees is converted (a 1088 x 1920 frame: 6 ms; a crop: < 1 ms)
+    # Only the crop around shoulders, hips and knees is converted and masked: a signature costs about
+    # 1.6 ms a person-frame on a 1088 x 1920 video (the landmark model: about 19 ms)
     corners = points[list(SHOULDERS + HIPS + KNEES)]
     margin = 0.25 * max(float(np.linalg.norm(points[HIPS[0]] - points[HIPS[1]])), 4.0) + 2
     x0, y0 = np.maximum(np.floor(corners.min(axis=0) - margin), 0).astype(int)
