@@ -139,7 +139,7 @@ def relink_gaps(rows: PeopleRows, fps: float, config: PoseConfig) -> PeopleRows:
             if (looks is not None and looks > config.appearance_limit) or (looks is None and gap > short):
                 continue  # other clothes; or a long gap with nothing to tell two people apart
             tolerance = config.relink_limit + config.relink_spread_per_s * max(0, gap - short) / fps
-            moved = _predicted_distance(rows, ended, last[ended], row_at, rows, row_at[(started, first[started])], gap)
+            moved = _predicted_distance(rows, ended, last[ended], row_at, row_at[(started, first[started])], gap)
             if moved < tolerance:
                 costs[(ended, started)] = moved / tolerance + (looks or 0.0) / config.appearance_limit
     parent = {p: p for p in ids}
@@ -156,7 +156,7 @@ def relink_gaps(rows: PeopleRows, fps: float, config: PoseConfig) -> PeopleRows:
 VELOCITY_FRAMES = 10  # an identity's last speed: its hips over its last 10 frames
 
 
-def _predicted_distance(rows: PeopleRows, ended: int, last: int, row_at: dict, other: PeopleRows, j: int, gap: int) -> float:
+def _predicted_distance(rows: PeopleRows, ended: int, last: int, row_at: dict, j: int, gap: int) -> float:
     """Mean keypoint distance (fraction of the ROI side) between where `ended` would be after
     `gap` frames at its last hip speed and the answer `j`."""
     i = row_at[(ended, last)]
@@ -167,8 +167,8 @@ def _predicted_distance(rows: PeopleRows, ended: int, last: int, row_at: dict, o
         hips = rows.keypoints2d[[i, k]][:, 23:25].mean(axis=1)
         velocity = (hips[0] - hips[1]) / max(int(rows.frame[i] - rows.frame[k]), 1)
     predicted = rows.keypoints2d[i] + velocity * gap
-    mean = float(np.linalg.norm(predicted - other.keypoints2d[j], axis=1).mean())
-    return mean / max(float(rows.roi_size[i]), float(other.roi_size[j]), 1.0)
+    mean = float(np.linalg.norm(predicted - rows.keypoints2d[j], axis=1).mean())
+    return mean / max(float(rows.roi_size[i]), float(rows.roi_size[j]), 1.0)
 
 
 CLEAR_OVERLAP = 0.2  # an answer whose keypoint box is covered more than this by another's is not a clean look

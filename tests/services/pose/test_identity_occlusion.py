@@ -1,6 +1,5 @@
 """Persons who leave and come back: clothes' colours and last speed carry an identity across a
 gap of a second or two; a track that slides onto someone else is cut where its clothes change."""
-import cv2
 import numpy as np
 import pytest
 
@@ -8,6 +7,7 @@ from services.pose.appearance import APPEARANCE_BINS, appearance_distance, appea
 from services.pose.config import PoseConfig
 from services.pose.identity import relink_gaps, split_switches
 from services.pose.people_chunk import PeopleRows
+from tests.bench_scripts import load_bench_script
 from tests.conftest import SHARED
 
 TWO_PEOPLE = SHARED / "data" / "video" / "pose2sim_two_people"
@@ -97,28 +97,6 @@ def test_a_track_that_slides_onto_someone_else_is_cut_where_the_clothes_change()
     assert _spans(relink_gaps(cut, 60.0, config)) == [(0, 39), (40, 59)]
 
 
-def _video_with_a_person_painted_over(source, out, hide, frames, models_dir):
-    from services.pose.pipeline import estimate_people
-
-    rows = estimate_people(source, models_dir=models_dir).rows
-    capture = cv2.VideoCapture(str(source))
-    fps, size = capture.get(cv2.CAP_PROP_FPS), (int(capture.get(3)), int(capture.get(4)))
-    writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"mp4v"), fps, size)
-    index = 0
-    while True:
-        ok, frame = capture.read()
-        if not ok:
-            break
-        mine = rows.keypoints2d[(rows.person == hide) & (rows.frame == index)]
-        if index in frames and len(mine):
-            (x0, y0), (x1, y1) = mine[0].min(axis=0) - 40, mine[0].max(axis=0) + 40
-            cv2.rectangle(frame, (int(x0), int(y0)), (int(x1), int(y1)), (90, 110, 60), -1)
-        writer.write(frame)
-        index += 1
-    writer.release()
-    return rows
-
-
 @pytest.mark.shared
 @pytest.mark.slow
 def test_a_person_hidden_for_a_second_in_a_real_video_keeps_one_identity(shared_dir, models_dir, tmp_path):
@@ -127,7 +105,9 @@ def test_a_person_hidden_for_a_second_in_a_real_video_keeps_one_identity(shared_
     # Pose2Sim two-people cam02: the woman painted over from frame 20 to 79 (1.0 s at 60 fps).
     # With position alone across at most 0.5 s she came back as a third identity at frame 83.
     video = tmp_path / "hidden.mp4"
-    _video_with_a_person_painted_over(TWO_PEOPLE / "cam02.mp4", video, 0, range(20, 80), models_dir)
+    occlusion = load_bench_script("identity_occlusion")  # the benchmark's own painter: frames 20-79
+    occlusion.paint_over(TWO_PEOPLE / "cam02.mp4", estimate_people(TWO_PEOPLE / "cam02.mp4", models_dir=models_dir).rows,
+                         0, video)
     rows = estimate_people(video, models_dir=models_dir).rows
     assert _spans(rows) == [(0, 99), (0, 99)]
     woman = rows.frame[rows.person == int(np.argmin([(rows.person == p).sum() for p in np.unique(rows.person)]))]
