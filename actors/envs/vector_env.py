@@ -59,11 +59,13 @@ class EpisodeLog:
 
 class VectorImitationEnv(CoreParts):
     def __init__(self, motion: ReferenceMotion, config: EnvConfig, num_envs: int, starts: BufferedStarts, seed: int = 0, gamma: float = 0.95,
-                 start_phase_spread: float = 0.0):
+                 start_phase_spread: float = 0.0, terrain_start_level: int = 0):
         """`start_phase_spread`: a start that carries a state (ASI's) begins at a phase drawn
         uniformly within this width around the start's own, the state's deviation from the
         reference carried there (`ImitationEnv.reset`'s `state_phase`); the episode log keeps
-        the state as drawn, which is what ASI's gradient needs. 0: at the start's phase."""
+        the state as drawn, which is what ASI's gradient needs. 0: at the start's phase.
+        `terrain_start_level`: the terrain curriculum's level every env starts at (a resumed
+        training's; 0: flat ground)."""
         motion = env_reference(motion, config)  # once for the M envs (a clip retargeted or closed here)
         humanoid = build_body(config, motion)  # one compiled model for the M envs (a scene's env copies its own)
         track = ReferenceTrack(motion, humanoid, 1.0 / config.control_hz, config.horizon_s, config.flight_starts,
@@ -104,7 +106,7 @@ class VectorImitationEnv(CoreParts):
         self.scene_obs = np.stack([env.scene_obs for env in self.envs])
         for i, env in enumerate(self.envs):
             env.scene_vector, env.scene_obs = self.scene_vectors[i], self.scene_obs[i]
-        ground = None if first.terrain is None else self._use_terrain(first.terrain, config)
+        ground = None if first.terrain is None else self._use_terrain(first.terrain, config, terrain_start_level)
         self.core = core = ImitationCore(self.envs, humanoid, track, config, first.obs_features_dim, obs_dim, first.scene_vector.size,
                                          first.scene_reward, first.scene_limbs, ground, first.heightmap_dim)
         core.mode.set_obstacles(first.obstacle_geom_ids)
@@ -113,17 +115,21 @@ class VectorImitationEnv(CoreParts):
         self._diverged = core.diverged
         self._obs64 = core.obs64
 
-    def _use_terrain(self, terrain, config: EnvConfig) -> Ground:
+    def _use_terrain(self, terrain, config: EnvConfig, start_level: int) -> Ground:
         """One `Ground` over the M envs, each env drawing into its rows; the curriculum's levels."""
         ground = Ground.of(terrain, self.num_envs)
         for i, env in enumerate(self.envs):
             env.use_ground(ground.rows(i))
         self.episodes.terrain_difficulty = []
         if config.terrain_curriculum:
-            self.curriculum = TerrainCurriculum(self.num_envs, config.terrain_difficulty, config.control_hz)
-            for env in self.envs:
-                env.terrain_difficulty = 0.0
+            self.curriculum = TerrainCurriculum(self.num_envs, config.terrain_difficulty, config.control_hz, start_level)
+            for i, env in enumerate(self.envs):
+                env.terrain_difficulty = self.curriculum.difficulty(i)
         return ground
+
+    def terrain_levels(self) -> np.ndarray | None:
+        """Each env's terrain-curriculum level now (a copy); None without a curriculum."""
+        return None if self.curriculum is None else self.curriculum.levels.copy()
 
     @property
     def max_reward(self) -> float:

@@ -51,6 +51,7 @@ class WorkerSpec:
     handover_share: float = 0.5  # share of episodes started from them
     first_frame_share: float = 0.0  # share of episodes started at the reference's first frame (FirstFrameStarts)
     start_phase_spread: float = 0.0  # a state start's phase spread uniformly over this width around its own (VectorImitationEnv)
+    terrain_start_level: int = 0  # the terrain curriculum's level every env starts at (a resumed training's; 0: flat)
 
 
 class _ServerStarts:
@@ -97,7 +98,7 @@ class RolloutWorker:
         if spec.handover_states is not None:
             starts = HandoverStarts(starts, spec.handover_states, spec.handover_share, np.random.default_rng([self.seed, 2]))
         self.env = VectorImitationEnv(spec.motion, spec.env, spec.num_envs, starts, seed=self.seed * 1000, gamma=spec.gamma,
-                                     start_phase_spread=spec.start_phase_spread)
+                                     start_phase_spread=spec.start_phase_spread, terrain_start_level=spec.terrain_start_level)
         self.policy: NumpyPolicy | None = None
         self._weights: dict | None = None
         self._started = False
@@ -152,6 +153,9 @@ class RolloutWorker:
             self.asi_version = self.client.report(episodes["initial_states"], episodes["components"], episodes["discounted_returns"],
                                                   policy_version, fell=episodes["fell"])
         batch.update({f"episode_{k}": v for k, v in episodes.items() if k != "initial_states"})
+        levels = env.terrain_levels()
+        if levels is not None:  # the curriculum's state, which the driver's checkpoint keeps for --resume
+            batch["terrain_levels"] = levels
         batch["policy_version"] = np.array(policy_version)
         batch["worker_index"] = np.array(self.worker_index)
         batch["worker_pid"] = np.array(os.getpid())

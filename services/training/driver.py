@@ -29,6 +29,7 @@ from actors.character.characters import character_named
 from actors.motion.character_reference import load_reference
 from actors.rollout.worker import RolloutWorker, WorkerSpec
 from actors.character.humanoid3d import HUMANOID3D
+from actors.envs.terrain_curriculum import LEVELS as TERRAIN_LEVELS
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
 from learner.errors import NonFiniteError, SfvError, TrainingStopped
 from learner.ppo import PPOLearner
@@ -76,6 +77,7 @@ class Trainer:
         self.samples = 0
         self.iteration = 0
         self.best_eval: float | None = None  # the best periodic evaluation's normalised return (best.pt)
+        self.terrain_level: float | None = None  # the terrain curriculum's mean level over the newest batch's envs
         self.asi_drift: ASIDrift | None = None
         self.stop: StopSignals | None = None  # installed around the loop (`run`)
 
@@ -128,6 +130,8 @@ class Trainer:
             raise SfvError(f"internal: a batch mixes policy versions {sorted(versions)} (expected {oldest}..{version})")
         batch = {k: np.concatenate([r[k] for r in results], axis=1) for k in TRAJECTORY_KEYS}
         batch["frames"] = np.concatenate([r["frames"] for r in results], axis=1)
+        if "terrain_levels" in results[0]:  # each env's curriculum level after its share: the checkpoint keeps the mean for --resume
+            self.terrain_level = float(np.mean(np.concatenate([r["terrain_levels"] for r in results])))
         for k in results[0]:
             if k.startswith("episode_"):
                 batch[k] = np.concatenate([r[k] for r in results])
@@ -179,7 +183,8 @@ class Trainer:
                               asi.address, config.job_id, asi.token, asi_tls_ca=config.asi_tls_ca,
                               asi_outage_s=config.asi_outage_s, handover_states=_handover_states(config),
                               handover_share=config.handover_share, first_frame_share=config.first_frame_share,
-                              start_phase_spread=config.asi_phase_spread / config.asi_components if config.init == "asi" else 0.0)
+                              start_phase_spread=config.asi_phase_spread / config.asi_components if config.init == "asi" else 0.0,
+                              terrain_start_level=self._terrain_start_level())
             self.runner = make_runner(config, self.worker_class, self.faults)
             self.runner.start(spec)
             if config.max_policy_lag > 0:
@@ -204,10 +209,21 @@ class Trainer:
         self.faults.restarts = int(checkpoint.get("worker_restarts", 0))
         self.faults.ray_restarts = int(checkpoint.get("ray_restarts", 0))
         self.best_eval = checkpoint.get("best_eval")
+        self.terrain_level = checkpoint.get("terrain_level")
         dropped = drop_metrics_after(self.run_dir, self.samples)
         if dropped:
             log.warning("%s: dropped %d metrics rows written after the checkpoint (iterations redone now)", self.run_dir, dropped)
         return int(checkpoint.get("asi_version", 0))
+
+    def _terrain_start_level(self) -> int:
+        """The level every env's terrain curriculum starts at: 0 on a fresh run, the checkpoint's
+        mean level (rounded) on a resumed one, so a resume does not climb back from flat ground."""
+        env = self.config.env
+        if self.terrain_level is None or env.terrain is None or not env.terrain_curriculum:
+            return 0
+        level = min(max(int(round(self.terrain_level)), 0), TERRAIN_LEVELS)
+        log.info("terrain curriculum: resuming at level %d (difficulty %.2f)", level, env.terrain_difficulty * level / TERRAIN_LEVELS)
+        return level
 
     def _loop(self, learner: PPOLearner, metrics: MetricsLog, asi_version: int) -> dict:
         import sys
@@ -362,6 +378,7 @@ class Trainer:
             "ray_restarts": self.faults.ray_restarts,
             "config": self.config.to_dict(),
             "best_eval": self.best_eval,
+            "terrain_level": self.terrain_level,
         }
 
     def _checkpoint(self, learner: PPOLearner, asi_version: int) -> None:

@@ -123,6 +123,29 @@ def test_the_curriculum_climbs_after_long_episodes_and_steps_down_after_falls():
     assert c.update(1, fell=True, steps=10) == 0.0
 
 
+def test_a_resumed_curriculum_starts_every_env_at_its_level_and_moves_from_there():
+    fresh = TerrainCurriculum(3, top=0.8, control_hz=30.0)
+    resumed = TerrainCurriculum(3, top=0.8, control_hz=30.0, start_level=4)
+    assert [fresh.difficulty(i) for i in range(3)] == [0.0, 0.0, 0.0]  # a fresh run: flat ground, as before
+    assert [resumed.difficulty(i) for i in range(3)] == pytest.approx([0.32] * 3)
+    assert resumed.update(0, fell=True, steps=10) == pytest.approx(0.24)
+    assert resumed.update(1, fell=False, steps=60) == pytest.approx(0.4)
+    with pytest.raises(ValueError, match="start level"):
+        TerrainCurriculum(3, top=0.8, control_hz=30.0, start_level=LEVELS + 1)
+
+
+def test_a_vector_env_started_at_a_level_plays_its_first_episodes_there(walk):
+    config = EnvConfig(terrain="mixed", terrain_difficulty=0.5, horizon_s=1.0)
+    starts = BufferedStarts(ReferenceStarts("rsi", np.random.default_rng(0)), batch=4)
+    env = VectorImitationEnv(walk, config, 2, starts, seed=0, terrain_start_level=6)
+    assert env.terrain_levels().tolist() == [6, 6]
+    env.reset()
+    for _ in range(40):
+        env.step(np.zeros((2, env.action_dim), np.float32))
+    log = env.episodes.drain()
+    assert len(log["terrain_difficulty"]) >= 2 and np.allclose(log["terrain_difficulty"][:2], 0.3)
+
+
 def test_the_observation_layout_names_the_heightmap_block_last(walk):
     from actors.character.features import observation_layout
 
