@@ -17,6 +17,7 @@ import numpy as np
 from actors.character.actions import ActionMapper
 from actors.character.features import FeatureExtractor, RewardFeatures
 from actors.envs.modes import mode_class
+from actors.envs.residual_force import WRENCH_DIM, ResidualForce
 from actors.envs.reference_obs import ReferenceObservation, ReferencePoseObservation
 from actors.envs.root_sync import RootSync
 from actors.envs.simulator import MujocoSimulator
@@ -66,6 +67,13 @@ class ImitationCore:
         character = humanoid.character
         self.actions = ActionMapper(config.action_parameterisation, config.residual_action_scale, character,
                                     character.residual_scale_factors if config.residual_scale_per_joint else None)
+        # A residual wrench on the root (actors/envs/residual_force.py): six more action numbers after the joints'.
+        self.residual = None
+        if config.residual_force > 0:
+            self.residual = ResidualForce(config.residual_force, config.residual_force_weight,
+                                          float(first.model.body_subtreemass[humanoid.body_ids[0]]), int(humanoid.body_ids[0]), num_envs)
+        self.joint_action_dim = self.actions.action_dim
+        self.action_dim = self.joint_action_dim + (WRENCH_DIM if self.residual is not None else 0)
         self.mode = mode_class(config.mode)(config, track, humanoid, num_envs)
         self.root_sync = RootSync(track, num_envs, config.sync_root_per_cycle and self.mode.tracks_root)
         self.reference_obs = ReferenceObservation(track, num_envs, config.reference_obs_steps if self.mode.tracks_root else ())
@@ -111,8 +119,11 @@ class ImitationCore:
             np.add(rows, 1 + self.target_lead, out=self._next_rows)
             np.minimum(self._next_rows, self.track.rows - 1, out=self._next_rows)
             base = np.take(self.track.ctrl, self._next_rows, axis=0, out=self._base)
-        targets = self.actions.targets_batch(actions, self.targets, base)
-        self.sim.step(targets, self.fell, self.diverged, self.fall, self.captures)
+        joints = self.joint_action_dim
+        if self.residual is not None:
+            self.residual.take(actions[:, joints:])
+        targets = self.actions.targets_batch(actions[:, :joints], self.targets, base)
+        self.sim.step(targets, self.fell, self.diverged, self.fall, self.captures, self.residual)
         for i, env in enumerate(self.envs):
             env._step += 1
             rows[i] = env.row
@@ -124,6 +135,8 @@ class ImitationCore:
         if self.ground is not None:
             self.ground.follow(reference, roots)  # the clip, recorded on the flat, over this ground
         rewards = self.mode.rewards(rows, features, features.reward_features(yaw), reference, self.terms, self.early_termination)
+        if self.residual is not None:
+            rewards *= self.residual.reward_factor()
         self.fell |= self.mode.terminated
         if self.scene_reward is not None:
             rewards += self.scene_rewards(rows, scene_vectors)

@@ -67,6 +67,8 @@ class EnvConfig:
     start_velocity_median_rows: int = field(default=MEDIAN_ROWS, metadata={"help": "start states' velocities are the median over this many control rows (odd; 1: the clip's own frame differences, DeepMimic's), which removes one-row velocity spikes (measured: docs/training.md)"})
     target_lead_s: float = field(default=1.0 / 15.0, metadata={"help": "residual actions add to the reference pose this long after the step they act towards (PD control lags its target by ~0.1 s); 0: the step's own pose (measured: docs/training.md)"})
     residual_action_scale: float | None = field(default=0.5, metadata={"help": "PD target = reference target of the step acted towards + this (rad) x action (dynamic-camera paper eq. 1); None: absolute targets. Walk, ASI, exp_map, eval NR at 1 M samples: .91 with no falls residual, .23 (all episodes falling) absolute"})
+    residual_force: float = field(default=0.0, metadata={"help": "a residual wrench on the root the policy may apply, its largest force per axis as a fraction of body weight (torque: that force x 0.5 m), six more action numbers; the help costs up to residual_force_weight of each step's reward (residual force control, SimPoE; actors/envs/residual_force.py). 0: none, the body alone"})
+    residual_force_weight: float = field(default=0.1, metadata={"help": "the share of each step's reward the residual wrench can cost: reward x (1 - w + w exp(-2 |a|^2)) over its six normalised numbers"})
     residual_scale_per_joint: bool = field(default=True, metadata={"help": "scale each joint's residual range by its character's factor (humanoid3d: 1; g1: effort / kp / 0.5); false: residual_action_scale rad on every joint (measured: docs/robots.md)"})
     sync_root_per_cycle: bool = field(default=True, metadata={"help": "move the reference's horizontal root to the character's at each new cycle of a looped clip (DeepMimic sync_char_root_pos)"})
     zero_reward_on_fall: bool = field(default=True, metadata={"help": "the step that ends in a fall earns 0, so falling never pays"})
@@ -105,6 +107,10 @@ class EnvConfig:
         unknown = [n for n in self.ground_contact_links or () if n not in character.link_names]
         if unknown:
             raise ValueError(f"ground contact links {unknown} are not links of the {self.character} ({', '.join(character.link_names)})")
+        if not (self.residual_force >= 0 and np.isfinite(self.residual_force)):
+            raise ValueError(f"residual_force must be a fraction of body weight >= 0, got {self.residual_force}")
+        if not 0.0 <= self.residual_force_weight <= 1.0:
+            raise ValueError(f"residual_force_weight must be in [0, 1], got {self.residual_force_weight}")
         if self.flight_starts not in FLIGHT_STARTS:
             raise ValueError(f"flight_starts must be one of {', '.join(FLIGHT_STARTS)}, got {self.flight_starts!r}")
         if self.start_velocity_median_rows < 1 or self.start_velocity_median_rows % 2 == 0:
@@ -195,7 +201,7 @@ class ImitationEnv(CoreParts, gym.Env):
         self.core = ImitationCore([self], self.humanoid, self.track, config, feature_dim, self.obs_dim, scene_dim, self.scene_reward, self.scene_limbs,
                                   self.ground, self.heightmap_dim)
         core = self.core
-        self.action_space = gym.spaces.Box(-1.0, 1.0, (self.actions.action_dim,), np.float32)
+        self.action_space = gym.spaces.Box(-1.0, 1.0, (core.action_dim,), np.float32)  # the joints', then a residual wrench's
         # The boxes' geom ids (empty on the flat floor), for an obstacle-collision termination.
         self.obstacle_geom_ids: tuple[int, ...] = self.arena.obstacle_geom_ids(self.model)
         self.mode.set_obstacles(self.obstacle_geom_ids)

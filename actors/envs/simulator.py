@@ -42,12 +42,16 @@ class MujocoSimulator:
         self._slots = [(m, d, divergence_counters(d)) for m, d in zip(self.models, self.datas)]
 
     def step(self, targets: np.ndarray, fell: np.ndarray, diverged: np.ndarray,
-             fall: Callable[[mujoco.MjData], bool] | None = None, captures: Sequence[Callable] = ()) -> None:
+             fall: Callable[[mujoco.MjData], bool] | None = None, captures: Sequence[Callable] = (),
+             residual=None) -> None:
         """Advance every env one control step towards its PD targets (B, nu); write each env's
-        divergence and fall (`fall(data)`; no rule: never) and run `captures(i, data)`."""
+        divergence and fall (`fall(data)`; no rule: never) and run `captures(i, data)`.
+        `residual` (a `ResidualForce` holding this step's wrenches) pushes on each env's root."""
         substeps = self.substeps
         for i, (model, data, warnings) in enumerate(self._slots):
             data.ctrl[:] = targets[i]
+            if residual is not None:
+                residual.apply(data, residual.root_body, residual.local[i])
             mujoco.mj_step(model, data, nstep=substeps)
             update_kinematics(model, data)
             diverged[i] = bool(warnings[0] or warnings[1] or warnings[2])  # cheaper than .any() on 3 ints

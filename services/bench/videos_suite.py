@@ -17,7 +17,8 @@ that already holds report.json is measured as it is, one with a finished trainin
   nearest the subject's 2D keypoints through `Calib_qualisys.toml`: which person was followed):
   PA-MPJPE, MPJPE after one similarity and acceleration error (mm) of the kinematic reference and
   of the simulated motion against the 12 triangulated joints, on the controller's 30 Hz grid;
-- the controller: outcome line, fall and when, NR from the first frame, minutes of the run;
+- the controller: outcome line, fall and when, NR from the first frame, the residual root force it
+  used (mean and max, fraction of body weight; null when trained without one), minutes of the run;
 - the frame strip: the run's overlay_strip.png beside the results as `<out>_<name>.png`, at most
   STRIP_WIDTH px wide (the run's own is 1632 px and 1.1 MB).
 """
@@ -39,6 +40,7 @@ SHARED_VIDEOS = REPO.parent / "shared" / "data" / "video"
 DEFAULT_FOLDERS = ("pose2sim_two_people", "pose2sim_balancing")
 VIDEO_SUFFIXES = {".mp4", ".avi", ".mov", ".mkv", ".webm"}
 STRIP_WIDTH = 1000
+STARTED_FILE = "bench_started.json"  # when the suite first started this video's pipeline (wall clock)
 MINUTES_FILE = "bench_minutes.json"  # the run's own wall time, kept beside it for a resumed suite
 
 
@@ -82,15 +84,16 @@ def run_pipeline(video: Path, out: Path, log) -> float:
     if (out / "motion.npz").is_file() and (out / "train" / "config.json").is_file():
         command.append("--finish-only")
     log(" ".join(command))
-    started = time.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
+    if not (out / STARTED_FILE).is_file():  # a resumed run's minutes count from its first start
+        atomic_write_json(out / STARTED_FILE, {"started": time.time()})
+    started = json.loads((out / STARTED_FILE).read_text())["started"]
     with open(out / "pipeline_stdout.txt", "a") as stdout:
         done = subprocess.run(command, cwd=REPO, stdout=stdout, stderr=subprocess.STDOUT)
     if done.returncode != 0:
         raise SfvError(f"{video}: sfv pipeline failed (exit {done.returncode}); see {out}/pipeline_stdout.txt")
-    minutes = round((time.perf_counter() - started) / 60.0, 1)
-    if "--finish-only" not in command:
-        atomic_write_json(out / MINUTES_FILE, {"minutes": minutes})
+    minutes = round((time.time() - started) / 60.0, 1)
+    atomic_write_json(out / MINUTES_FILE, {"minutes": minutes})
     return minutes
 
 
@@ -135,6 +138,7 @@ def video_row(video: Path, out: Path, minutes: float, strip: Path) -> dict:
         "ground_truth": truth_errors(video, report, motion, simulated),
         "outcome": report.get("outcome"), "fell": report["fell"], "fell_at_s": report["fell_at_s"],
         "normalized_return": report["normalized_return"],
+        "residual_force_body_weight": report.get("residual_force_body_weight"),  # the root help used (null: none)
         "root_relative_joint_error_m": report["root_relative_joint_error_m"]["mean"],
         "world_aligned_joint_error_m": (report.get("world_aligned_joint_error_m") or {}).get("mean"),
         "strip": str(strip),
@@ -143,7 +147,8 @@ def video_row(video: Path, out: Path, minutes: float, strip: Path) -> dict:
 
 def markdown(rows: list[dict]) -> str:
     lines = ["| video | subject frames | reprojection px ref / sim | skating m/s ref / sim | penetration cm sim | "
-             "PA-MPJPE mm kin / sim | from the first frame | NR | minutes |", "|---|---|---|---|---|---|---|---:|---:|"]
+             "PA-MPJPE mm kin / sim | from the first frame | NR | root help, body weight | minutes |",
+             "|---|---|---|---|---|---|---|---:|---|---:|"]
     for r in rows:
         gt = r["ground_truth"]
         pa = "-" if gt is None else f"{gt['kinematic']['pa_mpjpe_mm']:.0f} / {gt['simulated']['pa_mpjpe_mm']:.0f}"
@@ -153,8 +158,13 @@ def markdown(rows: list[dict]) -> str:
                      f"{_num(skate['reference'], 2)} / {_num(skate['simulated'], 2)} | "
                      f"{_num(100 * r['penetration_max_m']['simulated'])} | {pa} | "
                      f"{'fell at %.2f s' % r['fell_at_s'] if r['fell'] else 'completed'} | "
-                     f"{r['normalized_return']:.3f} | {r['minutes']:.1f} |")
+                     f"{r['normalized_return']:.3f} | {_help(r.get('residual_force_body_weight'))} | {r['minutes']:.1f} |")
     return "\n".join(lines)
+
+
+def _help(used: dict | None) -> str:
+    """The residual root force a row's controller used: mean / max, or none."""
+    return "none" if not used else f"{used['mean']:.2f} / {used['max']:.2f}"
 
 
 def _num(value, digits: int = 1) -> str:

@@ -14,6 +14,7 @@ STATIC_DEFAULTS = dict(run_spec("pipeline-static", "pipeline").settings)
 PIPELINE_DEFAULT_TEXT = {
     "samples": f"{STATIC_DEFAULTS['samples']} with a static camera, {WINDOW_SAMPLES} per window with --camera moving",
     "first_frame_share": f"{STATIC_DEFAULTS['first_frame_share']} with a static camera, 0 with --camera moving",
+    "env.residual_force": f"{STATIC_DEFAULTS['env.residual_force']} with a static camera, 0 with --camera moving",
 }
 
 

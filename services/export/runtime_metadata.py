@@ -14,7 +14,7 @@ reference row of the current state: 0 at the reference's first frame, one more p
 | `default_joint_pos` | PD targets of a standing pose (`Character.default_joint_pos`), per actuator |
 | `kp`, `kd`, `effort_limit`, `armature` | each actuator's PD gains (N m/rad, N m s/rad), torque limit (N m), the joint's rotor inertia |
 | `target_limits` | [lower, upper] lists: every PD target is clipped to these |
-| `action` | how an action becomes PD targets: `target = offset + scale * clip(action, -1, 1)`, then clipped; the step from row r acts towards row r + 1 and its `offset` is the reference's targets at row min(r + 1 + lead_steps, last row) for residual actions (`reference_track.targets`), zeros otherwise |
+| `action` | how an action becomes PD targets (`residual_wrench`: the last six outputs of a policy trained with a residual root wrench, else null): `target = offset + scale * clip(action, -1, 1)`, then clipped; the step from row r acts towards row r + 1 and its `offset` is the reference's targets at row min(r + 1 + lead_steps, last row) for residual actions (`reference_track.targets`), zeros otherwise |
 | `reference_targets`, `reference_loop` | the reference's PD targets at every control step of one pass of the clip (rows), and whether it repeats |
 | `reference_track` | every row an episode from the first frame reads (`what` says how): the reference's `qpos`, `phase` and PD `targets` per control step, past one pass for a looped clip (its root moving on) |
 | `initial_qpos`, `initial_qvel` | the reference's first frame (row 0), full precision, in the MJCF's qpos / qvel order |
@@ -81,10 +81,16 @@ def _pd(model: mujoco.MjModel) -> dict:
 def _action(env) -> dict:
     actions = env.actions
     residual = actions.residual
+    wrench = env.core.residual
     return {"parameterisation": actions.parameterisation, "dim": int(actions.action_dim), "clip": [-1.0, 1.0],
             "scale": _numbers(actions.scale), "offset": "reference_targets" if residual else "zeros",
             "lead_steps": int(env.target_lead_steps) if residual else 0,
-            "elementwise": actions.parameterisation == "exp_map"}  # one action per actuator (a ball joint: its 3 exp-map targets)
+            "elementwise": actions.parameterisation == "exp_map",  # one action per actuator (a ball joint: its 3 exp-map targets)
+            # a residual wrench on the root (actors/envs/residual_force.py): the policy's last six outputs, no actuator's
+            "residual_wrench": None if wrench is None else {
+                "dims": [int(actions.action_dim), int(actions.action_dim) + 6], "scale": _numbers(wrench.scale),
+                "what": "force (N) then torque (N m) = scale * clip(action, -1, 1), in the root body's frame, at its centre of mass; "
+                        "a simulation aid (not a motor): a robot runtime has no such actuator"}}
 
 
 def _physics(env) -> dict:

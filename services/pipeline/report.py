@@ -24,6 +24,9 @@ Keys (lengths in metres, speeds in m/s, times in seconds, image errors in pixels
   reconstruction's camera against the video's 2D keypoints (confidence-weighted mean per
   frame, then mean / max), at the video frame of each control step; None without a camera.
   Joints behind the camera are not scored; behind_camera_frames counts the frames with one.
+- residual_force_body_weight: mean / max of the residual root force the controller applied
+  (`EnvConfig.residual_force`, a help no body has), as a fraction of body weight; null when
+  it was trained without one.
 """
 from __future__ import annotations
 
@@ -107,6 +110,9 @@ def build_report(rollout: FirstFrameRollout, humanoid, reconstruction: Reference
         "world_aligned_joint_error_m": _rounded(metrics.summary(aligned), 4),
         "reprojection_error_px": {"simulated": _nan_summary(sim_px), "reference": _nan_summary(ref_px)},
         "behind_camera_frames": _behind(sim, reconstruction),
+        # the residual root force the controller used (a help no body has; null: trained without it)
+        "residual_force_body_weight": None if rollout.residual_force is None or not len(rollout.residual_force)
+        else _rounded(metrics.summary(rollout.residual_force), 4),
     }
     figures = {"simulated": motion_figures(sim, hz), "reference": motion_figures(ref, hz)}
     for key in ("foot_skating_m_s", "ground_penetration_m", "contact_fraction"):

@@ -39,6 +39,7 @@ class FirstFrameRollout:
     diverged: bool
     normalized_return: float  # strict: rewards until the fall over the most the clip could earn
     rewards: np.ndarray  # (T - 1,) the env's reward of each step
+    residual_force: np.ndarray | None = None  # (T - 1,) |residual root force| / body weight per step; None: the env has none
 
     @property
     def frames(self) -> int:
@@ -78,6 +79,8 @@ def first_frame_rollout(policy, env: ImitationEnv, on_step: Callable[[int, int],
         qpos = np.empty((limit + 1, env.model.nq))
         rows = np.empty(limit + 1, np.int64)
         rewards = np.zeros(limit)
+        residual = env.core.residual  # a residual root wrench (actors/envs/residual_force.py), or None
+        help_used = np.zeros(limit) if residual is not None else None
         qpos[0], rows[0] = env.data.qpos, env.row
         count, total, fell_at, diverged = 1, 0.0, None, False
         for step in range(1, limit + 1):
@@ -88,6 +91,8 @@ def first_frame_rollout(policy, env: ImitationEnv, on_step: Callable[[int, int],
                 break
             qpos[count], rows[count] = env.data.qpos, env.row
             rewards[step - 1] = reward
+            if help_used is not None:
+                help_used[step - 1] = residual.force_fraction[0]
             count += 1
             if fell_at is None:
                 if detector(env.data):
@@ -101,7 +106,8 @@ def first_frame_rollout(policy, env: ImitationEnv, on_step: Callable[[int, int],
     finally:
         env.config = saved
     return FirstFrameRollout(float(env.config.control_hz), qpos[:count].copy(), env.track.qpos[rows[:count]].copy(),
-                             rows[:count].copy(), limit, fell_at, diverged, total / best, rewards[:count - 1].copy())
+                             rows[:count].copy(), limit, fell_at, diverged, total / best, rewards[:count - 1].copy(),
+                             None if help_used is None else help_used[:count - 1].copy())
 
 
 @dataclass

@@ -41,7 +41,8 @@ def _finished_run(run, fell: bool) -> None:
               "reprojection_error_px": {"simulated": {"mean": 40.0}, "reference": {"mean": 12.0}},
               "foot_skating_m_s": {"simulated": 0.5, "reference": 0.4},
               "ground_penetration_m": {"simulated": {"mean": 0.01, "max": 0.02}, "reference": {"mean": 0.0, "max": 0.0}},
-              "root_relative_joint_error_m": {"mean": 0.1}, "world_aligned_joint_error_m": {"mean": 0.2}}
+              "root_relative_joint_error_m": {"mean": 0.1}, "world_aligned_joint_error_m": {"mean": 0.2},
+              "residual_force_body_weight": {"mean": 0.114, "max": 0.192} if fell else None}
     (run / "report.json").write_text(json.dumps(report))
 
 
@@ -69,8 +70,9 @@ def test_the_suite_measures_finished_runs_and_writes_one_row_per_video(tmp_path,
     assert sorted(p.name for p in tmp_path.iterdir() if p.is_file()) == ["videos.json", "videos_clips_a.png",
                                                                           "videos_clips_b.png"]
     table = capsys.readouterr().out
-    assert "| clips_a | 4-13 (person 1) | 12.0 / 40.0 | 0.40 / 0.50 | 2.0 | - | completed | 0.500 | 12.5 |" in table
-    assert "fell at 0.20 s" in markdown(rows)
+    assert "| clips_a | 4-13 (person 1) | 12.0 / 40.0 | 0.40 / 0.50 | 2.0 | - | completed | 0.500 | none | 12.5 |" in table
+    assert "| fell at 0.20 s | 0.500 | 0.11 / 0.19 | 12.5 |" in markdown(rows)
+    assert rows[1]["residual_force_body_weight"] == {"mean": 0.114, "max": 0.192}
 
 
 def test_the_table_grows_a_video_at_a_time_and_a_video_run_again_replaces_its_row(tmp_path):
