@@ -18,7 +18,8 @@ that already holds report.json is measured as it is, one with a finished trainin
   PA-MPJPE, MPJPE after one similarity and acceleration error (mm) of the kinematic reference and
   of the simulated motion against the 12 triangulated joints, on the controller's 30 Hz grid;
 - the controller: outcome line, fall and when, NR from the first frame, the residual root force it
-  used (mean and max, fraction of body weight; null when trained without one), minutes of the run;
+  used (mean and max, fraction of body weight; null when trained without one) and the same episode
+  with that help at zero (`without_residual_force`), minutes of the run;
 - the frame strip: the run's overlay_strip.png beside the results as `<out>_<name>.png`, at most
   STRIP_WIDTH px wide (the run's own is 1632 px and 1.1 MB).
 """
@@ -139,6 +140,7 @@ def video_row(video: Path, out: Path, minutes: float, strip: Path) -> dict:
         "outcome": report.get("outcome"), "fell": report["fell"], "fell_at_s": report["fell_at_s"],
         "normalized_return": report["normalized_return"],
         "residual_force_body_weight": report.get("residual_force_body_weight"),  # the root help used (null: none)
+        "without_residual_force": report.get("without_residual_force"),  # the same episode with the help at zero
         "root_relative_joint_error_m": report["root_relative_joint_error_m"]["mean"],
         "world_aligned_joint_error_m": (report.get("world_aligned_joint_error_m") or {}).get("mean"),
         "strip": str(strip),
@@ -158,13 +160,20 @@ def markdown(rows: list[dict]) -> str:
                      f"{_num(skate['reference'], 2)} / {_num(skate['simulated'], 2)} | "
                      f"{_num(100 * r['penetration_max_m']['simulated'])} | {pa} | "
                      f"{'fell at %.2f s' % r['fell_at_s'] if r['fell'] else 'completed'} | "
-                     f"{r['normalized_return']:.3f} | {_help(r.get('residual_force_body_weight'))} | {r['minutes']:.1f} |")
+                     f"{r['normalized_return']:.3f} | {_help(r.get('residual_force_body_weight'), r.get('without_residual_force'))} | "
+                     f"{r['minutes']:.1f} |")
     return "\n".join(lines)
 
 
-def _help(used: dict | None) -> str:
-    """The residual root force a row's controller used: mean / max, or none."""
-    return "none" if not used else f"{used['mean']:.2f} / {used['max']:.2f}"
+def _help(used: dict | None, alone: dict | None = None) -> str:
+    """The residual root force a row's controller used (mean / max, or none) and how the same
+    episode ends with it at zero."""
+    if not used:
+        return "none"
+    text = f"{used['mean']:.2f} / {used['max']:.2f}"
+    if alone is not None:
+        text += "; alone: " + (f"fell at {alone['fell_at_s']:.2f} s" if alone["fell"] else "completed")
+    return text
 
 
 def _num(value, digits: int = 1) -> str:

@@ -11,7 +11,9 @@
                        both through the reconstruction's camera, captions with frame and fall state,
                        report.json's outcome line under every frame
     overlay_strip.png  the simulated humanoid over video frames through that camera
-    report.json        fall, return, joint error, skating, penetration, reprojection (`report.py`)
+    report.json        fall, return, joint error, skating, penetration, reprojection (`report.py`);
+                       for a controller with a residual root wrench, `without_residual_force`:
+                       the same first-frame episode with the wrench at zero (fell, when, return)
 
 One line per file on stdout (for people), progress bars on stderr.
 """
@@ -32,6 +34,17 @@ def _bar(progress: bool, total: int, desc: str):
     from tqdm import tqdm
 
     return tqdm(total=total, desc=desc, unit="frame", disable=not progress, dynamic_ncols=True, file=sys.stderr)
+
+
+def _unaided(source, reconstruction) -> dict:
+    """The same controller from the first frame with its residual root wrench at zero: whether
+    it completes the clip by the body's own joints (one line and the strict figures)."""
+    from services.pipeline.rollout import WithoutWrench, first_frame_rollout
+    from services.training.evaluation import make_eval_env
+
+    alone = first_frame_rollout(WithoutWrench(source.policy), make_eval_env(reconstruction, source.env_config))
+    return {"fell": alone.fell, "fell_at_s": None if alone.fell_at_s is None else round(alone.fell_at_s, 3),
+            "normalized_return": round(alone.normalized_return, 4)}
 
 
 def finish_static_run(out: Path, video: Path, motion_path: Path, run_dir: Path, checkpoint: str = "best",
@@ -62,6 +75,9 @@ def finish_static_run(out: Path, video: Path, motion_path: Path, run_dir: Path, 
     with threadpool_limits(1, user_api="blas"), _bar(progress, steps, "rollout") as bar:
         rollout = first_frame_rollout(source.policy, env, lambda done, total: bar.update(done - bar.n))
     report, sim, _ = build_report(rollout, env.humanoid, reconstruction)
+    if env.core.residual is not None:
+        with threadpool_limits(1, user_api="blas"):
+            report["without_residual_force"] = _unaided(source, reconstruction)
     report = {"video": str(video), "motion": str(motion_path), "run": str(run_dir), "checkpoint": source.checkpoint,
               "video_start_frame": first, **report}
     files = {}

@@ -26,7 +26,8 @@ Keys (lengths in metres, speeds in m/s, times in seconds, image errors in pixels
   Joints behind the camera are not scored; behind_camera_frames counts the frames with one.
 - residual_force_body_weight: mean / max of the residual root force the controller applied
   (`EnvConfig.residual_force`, a help no body has), as a fraction of body weight; null when
-  it was trained without one.
+  it was trained without one. without_residual_force (only then, `finish.py`): the same
+  controller from the first frame with the wrench at zero: fell, fell_at_s, normalized_return.
 """
 from __future__ import annotations
 

@@ -61,6 +61,20 @@ class FirstFrameRollout:
         return steps < (self.fell_at_step if self.fell_at_step is not None else self.frames + 1)
 
 
+class WithoutWrench:
+    """A policy trained with a residual root wrench (actors/envs/residual_force.py), played with
+    its last six outputs at zero: the body alone, to say whether the controller needs the help."""
+
+    def __init__(self, policy):
+        self.policy = policy
+
+    def mean(self, obs: np.ndarray) -> np.ndarray:
+        inner = getattr(self.policy, "mean", None)
+        action = np.array(inner(obs) if callable(inner) else self.policy.act(obs, deterministic=True)[0], dtype=np.float32)
+        action[..., -6:] = 0.0
+        return action
+
+
 def first_frame_rollout(policy, env: ImitationEnv, on_step: Callable[[int, int], None] | None = None) -> FirstFrameRollout:
     """Play the policy from the clip's first frame for the clip's length (one pass for a looped
     clip); `on_step(done, total)` after every control step (a progress bar)."""

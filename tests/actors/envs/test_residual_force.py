@@ -65,27 +65,3 @@ def test_help_costs_reward_up_to_its_weight_and_scales_with_body_weight():
 def test_bad_settings_are_errors_naming_the_field(settings, word):
     with pytest.raises(ValueError, match=word):
         EnvConfig(**settings)
-
-
-class _Constant:
-    def __init__(self, action):
-        self.action = action
-
-    def mean(self, obs):
-        return self.action[None]
-
-
-def test_the_report_says_how_much_help_the_controller_used(walk):
-    from services.pipeline.report import build_report
-    from services.pipeline.rollout import first_frame_rollout
-
-    env = ImitationEnv(walk, EnvConfig(residual_force=0.4))
-    action = np.zeros(env.action_space.shape[0])
-    action[-6:-3] = [0.0, 0.6, 0.8]  # |a_force| = 1: 0.4 of body weight
-    rollout = first_frame_rollout(_Constant(action), env)
-    np.testing.assert_allclose(rollout.residual_force, 0.4)
-    report, _, _ = build_report(rollout, env.humanoid, walk)
-    assert report["residual_force_body_weight"] == {"mean": pytest.approx(0.4), "max": pytest.approx(0.4)}
-    plain = ImitationEnv(walk, EnvConfig())
-    unaided = first_frame_rollout(_Constant(np.zeros(plain.action_space.shape[0])), plain)
-    assert unaided.residual_force is None and build_report(unaided, plain.humanoid, walk)[0]["residual_force_body_weight"] is None

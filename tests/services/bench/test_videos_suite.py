@@ -42,7 +42,8 @@ def _finished_run(run, fell: bool) -> None:
               "foot_skating_m_s": {"simulated": 0.5, "reference": 0.4},
               "ground_penetration_m": {"simulated": {"mean": 0.01, "max": 0.02}, "reference": {"mean": 0.0, "max": 0.0}},
               "root_relative_joint_error_m": {"mean": 0.1}, "world_aligned_joint_error_m": {"mean": 0.2},
-              "residual_force_body_weight": {"mean": 0.114, "max": 0.192} if fell else None}
+              "residual_force_body_weight": {"mean": 0.114, "max": 0.192} if fell else None,
+              **({"without_residual_force": {"fell": True, "fell_at_s": 0.1, "normalized_return": 0.2}} if fell else {})}
     (run / "report.json").write_text(json.dumps(report))
 
 
@@ -71,7 +72,8 @@ def test_the_suite_measures_finished_runs_and_writes_one_row_per_video(tmp_path,
                                                                           "videos_clips_b.png"]
     table = capsys.readouterr().out
     assert "| clips_a | 4-13 (person 1) | 12.0 / 40.0 | 0.40 / 0.50 | 2.0 | - | completed | 0.500 | none | 12.5 |" in table
-    assert "| fell at 0.20 s | 0.500 | 0.11 / 0.19 | 12.5 |" in markdown(rows)
+    assert "| fell at 0.20 s | 0.500 | 0.11 / 0.19; alone: fell at 0.10 s | 12.5 |" in markdown(rows)
+    assert rows[0]["without_residual_force"] is None
     assert rows[1]["residual_force_body_weight"] == {"mean": 0.114, "max": 0.192}
 
 
