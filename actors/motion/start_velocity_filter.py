@@ -24,8 +24,11 @@ default.
 Applied to start states only, before a flight's velocities are made ballistic
 (`actors/motion/ballistic_flight.py`); the reward still compares against the reference's own
 velocities. A looped clip's first rows take their left neighbours from the end of its cycle
-(the rows are one cycle followed by the horizon, so the same phase repeats); a clip that does not
-loop holds its first and last rows.
+(the rows are one cycle followed by the horizon, so the same phase repeats). A clip that does not
+loop has no rows beyond its ends, so its first and last rows take the window's rows from inside
+the clip (row 0: the median of rows 0, 1, 2): holding the end row instead counted it twice, and
+a spike at a video's first frame (a subject who has just appeared) stayed in the state every
+first-frame episode starts from.
 """
 from __future__ import annotations
 
@@ -39,7 +42,7 @@ def median_start_velocities(qvel: np.ndarray, window: int, cycle_rows: int | Non
 
     `window` is odd; `cycle_rows`: a looped clip's rows per cycle (row r + cycle_rows has row
     r's phase), so rows before the first come from the cycle's end; None for a clip that does
-    not loop (its ends are held)."""
+    not loop (the windows of its end rows slide inside it)."""
     qvel = np.asarray(qvel, dtype=np.float64)
     if window < 1 or window % 2 == 0:
         raise ValueError(f"the median window must be an odd number of rows, got {window}")
@@ -51,5 +54,9 @@ def median_start_velocities(qvel: np.ndarray, window: int, cycle_rows: int | Non
     if cycle_rows:
         index = np.where(index < 0, index % cycle_rows, index)
         index = np.where(index >= rows, index - cycle_rows * ((index - rows) // cycle_rows + 1), index)
-    padded = qvel[np.clip(index, 0, rows - 1)]
-    return np.median(np.stack([padded[j:j + rows] for j in range(window)]), axis=0)
+        padded = qvel[np.clip(index, 0, rows - 1)]
+        return np.median(np.stack([padded[j:j + rows] for j in range(window)]), axis=0)
+    # Not looped: each row's window slides inside the clip at its ends (a short clip: the whole clip).
+    starts = np.clip(np.arange(rows) - radius, 0, max(rows - window, 0))
+    span = min(window, rows)
+    return np.median(np.stack([qvel[starts + j] for j in range(span)]), axis=0)

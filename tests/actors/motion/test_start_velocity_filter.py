@@ -28,6 +28,17 @@ def test_a_spike_goes_a_step_and_a_line_stay():
     assert median_start_velocities(pair, 3, None)[8, 0] == 1.0 and median_start_velocities(pair, 5, None)[8, 0] == 0.0
 
 
+def test_a_spike_at_a_clips_first_or_last_row_goes_too():
+    # A video whose subject has just appeared: its first frame's velocity is a jump from nowhere.
+    qvel = np.zeros((12, 2))
+    qvel[0] = [6.7, -2.0]
+    qvel[-1] = [-4.0, 1.0]
+    np.testing.assert_array_equal(median_start_velocities(qvel, 3, None), np.zeros((12, 2)))
+    np.testing.assert_array_equal(median_start_velocities(qvel, 5, None), np.zeros((12, 2)))
+    short = np.array([[1.0], [3.0]])  # fewer rows than the window: the median of the whole clip
+    np.testing.assert_array_equal(median_start_velocities(short, 3, None), [[2.0], [2.0]])
+
+
 def test_a_window_of_one_is_the_reference_and_the_input_is_not_changed():
     qvel = np.random.default_rng(0).normal(size=(12, 5))
     kept = qvel.copy()
@@ -46,7 +57,7 @@ def test_a_loops_first_row_takes_its_left_neighbour_from_the_cycles_end():
     looped = median_start_velocities(qvel, 3, cycle)
     held = median_start_velocities(qvel, 3, None)
     assert looped[0, 0] == 2.0  # median of rows 9, 0, 1: 1, 3, 2
-    assert held[0, 0] == 3.0  # median of rows 0, 0, 1: a clip that does not loop holds its first row
+    assert held[0, 0] == 2.0  # median of rows 0, 1, 2: 3, 2, 0: a clip that does not loop looks inside itself
     np.testing.assert_array_equal(looped[:cycle], looped[cycle:2 * cycle])
     assert looped[-1, 0] == looped[20, 0] == 2.0  # the horizon's last row: its right neighbour is row 21's phase
 
