@@ -47,6 +47,14 @@ def _unaided(source, reconstruction) -> dict:
             "normalized_return": round(alone.normalized_return, 4)}
 
 
+def _help_clause(used: dict | None, alone: dict) -> str:
+    """The outcome line's note on the residual root wrench: how much the controller leaned on it,
+    and how the body alone does (a user must not read a helped motion as a physical one)."""
+    share = 0.0 if not used or used["mean"] is None else used["mean"]
+    ending = f"falls at {alone['fell_at_s']:.2f} s" if alone["fell"] else "completes it too"
+    return f"; with a residual root force of {100 * share:.0f} % of body weight on average (without it: {ending})"
+
+
 def finish_static_run(out: Path, video: Path, motion_path: Path, run_dir: Path, checkpoint: str = "best",
                       progress: bool = True, height: int = 480, strip_frames: int = 6, say=print) -> dict:
     """Write the five files into `out`; returns the report (with the files' paths under "files")."""
@@ -78,6 +86,7 @@ def finish_static_run(out: Path, video: Path, motion_path: Path, run_dir: Path, 
     if env.core.residual is not None:
         with threadpool_limits(1, user_api="blas"):
             report["without_residual_force"] = _unaided(source, reconstruction)
+        report["outcome"] += _help_clause(report["residual_force_body_weight"], report["without_residual_force"])
     report = {"video": str(video), "motion": str(motion_path), "run": str(run_dir), "checkpoint": source.checkpoint,
               "video_start_frame": first, **report}
     files = {}

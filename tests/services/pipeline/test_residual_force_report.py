@@ -47,3 +47,12 @@ def test_without_the_wrench_the_same_policy_gets_no_help(walk):
     np.testing.assert_array_equal(alone.residual_force, 0.0)
     helped = first_frame_rollout(_Constant(action), env)
     assert helped.residual_force.min() > 0.1  # the same policy with its wrench
+
+
+def test_the_outcome_line_says_the_help_and_how_the_body_alone_does():
+    from services.pipeline.finish import _help_clause
+
+    needed = _help_clause({"mean": 0.1137, "max": 0.19}, {"fell": True, "fell_at_s": 1.233, "normalized_return": 0.47})
+    assert needed == "; with a residual root force of 11 % of body weight on average (without it: falls at 1.23 s)"
+    spare = _help_clause({"mean": 0.004, "max": 0.02}, {"fell": False, "fell_at_s": None, "normalized_return": 0.9})
+    assert spare.endswith("of 0 % of body weight on average (without it: completes it too)")
