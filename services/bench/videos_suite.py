@@ -86,14 +86,19 @@ def run_pipeline(video: Path, out: Path, log) -> float:
         command.append("--finish-only")
     log(" ".join(command))
     out.mkdir(parents=True, exist_ok=True)
+    measured = out / MINUTES_FILE
+    earlier = json.loads(measured.read_text())["minutes"] if "--finish-only" in command and measured.is_file() else None
     if not (out / STARTED_FILE).is_file():  # a resumed run's minutes count from its first start
         atomic_write_json(out / STARTED_FILE, {"started": time.time()})
-    started = json.loads((out / STARTED_FILE).read_text())["started"]
+    started, now = json.loads((out / STARTED_FILE).read_text())["started"], time.time()
     with open(out / "pipeline_stdout.txt", "a") as stdout:
         done = subprocess.run(command, cwd=REPO, stdout=stdout, stderr=subprocess.STDOUT)
     if done.returncode != 0:
         raise SfvError(f"{video}: sfv pipeline failed (exit {done.returncode}); see {out}/pipeline_stdout.txt")
-    minutes = round((time.time() - started) / 60.0, 1)
+    if earlier is not None:  # finished again (a report redone): the run's minutes plus this finishing
+        minutes = round(earlier + (time.time() - now) / 60.0, 1)
+    else:
+        minutes = round((time.time() - started) / 60.0, 1)
     atomic_write_json(out / MINUTES_FILE, {"minutes": minutes})
     return minutes
 

@@ -129,3 +129,26 @@ def test_the_person_followed_is_found_among_the_markers():
         path, truth = followed_truth(TWO_PEOPLE / "cam02.mp4", seen, frames)
         assert path == trc and np.array_equal(truth, joints, equal_nan=True)
     assert followed_truth(TWO_PEOPLE / "other.mp4", seen, frames) is None  # no camera of that name
+
+
+def test_minutes_count_from_the_first_start_and_a_refinish_adds_to_the_run(tmp_path, monkeypatch):
+    import subprocess
+    import time
+
+    from services.bench import videos_suite
+
+    calls = []
+    monkeypatch.setattr(videos_suite.subprocess, "run",
+                        lambda command, **kw: calls.append(command) or subprocess.CompletedProcess(command, 0))
+    resumed = tmp_path / "resumed"
+    resumed.mkdir()
+    (resumed / videos_suite.STARTED_FILE).write_text(json.dumps({"started": time.time() - 30 * 60}))
+    assert videos_suite.run_pipeline(tmp_path / "v.mp4", resumed, lambda line: None) == pytest.approx(30.0, abs=0.2)
+    refinished = tmp_path / "refinished"
+    (refinished / "train").mkdir(parents=True)
+    for name in ("motion.npz", "train/config.json"):
+        (refinished / name).write_text("")
+    (refinished / MINUTES_FILE).write_text(json.dumps({"minutes": 16.2}))  # trained before; its report is redone
+    assert videos_suite.run_pipeline(tmp_path / "v.mp4", refinished, lambda line: None) == pytest.approx(16.2, abs=0.1)
+    assert "--finish-only" in calls[-1] and "--finish-only" not in calls[0]
+    assert json.loads((refinished / MINUTES_FILE).read_text())["minutes"] == pytest.approx(16.2, abs=0.1)
