@@ -105,6 +105,10 @@ class VectorTaskEnv:
         """Cap episodes that start from now on (the driver's curriculum seam); None: the config's horizon."""
         self._cap = None if seconds is None else max(1, int(round(seconds * self.config.control_hz)))
 
+    def terrain_levels(self) -> None:
+        """No terrain curriculum on a task's flat arena (the rollout worker's seam: `VectorImitationEnv`'s levels)."""
+        return None
+
     def reset(self) -> np.ndarray:
         for i in range(self.num_envs):
             self._reset_env(i)
