@@ -183,7 +183,7 @@ def test_the_onnx_export_carries_a_robot_runtimes_metadata(g1_run, tmp_path):
     # The per-joint residual range: +-1 reaches each motor's effort limit at rest.
     np.testing.assert_allclose(np.asarray(action.pop("scale")) * g1_spec.KP, g1_spec.EFFORT_LIMITS, rtol=1e-5)
     assert action == {"parameterisation": "exp_map", "dim": 29, "clip": [-1.0, 1.0],
-                      "offset": "reference_targets", "lead_steps": 2, "elementwise": True}
+                      "offset": "reference_targets", "lead_steps": 2, "elementwise": True, "residual_wrench": None}
     assert (meta["control_hz"], meta["physics_hz"], meta["reference_loop"]) == (30.0, 300.0, True)
     env = load_policy_source(g1_run).make_env()
     assert np.shape(meta["reference_targets"]) == (env.track.start_steps, 29)
