@@ -193,11 +193,12 @@ def run_videos_suite(videos: list[Path], runs_dir: Path, out: Path, log) -> dict
     for video in videos:
         run = runs_dir / run_name(video)
         minutes = run_pipeline(video, run, log)
-        rows.append(video_row(video, run, minutes, out.with_name(f"{out.stem}_{run_name(video)}.png")))
+        row = video_row(video, run, minutes, out.with_name(f"{out.stem}_{run_name(video)}.png"))
+        rows.append(row)
         rows.sort(key=lambda r: r["video"])
         document["completed"] = sum(not r["fell"] for r in rows)
         atomic_write_json(out, document)
-        log(f"{run_name(video)}: {rows[-1]['outcome']}")
+        log(f"{run_name(video)}: {row['outcome']}")  # this video's, not the last row after sorting
     return document
 
 
