@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 HELP = "replay an exported ONNX policy as a robot runtime would: a fresh model from the robot MJCF, another physics rate"  # the one line `sfv --help` lists
@@ -75,5 +76,8 @@ def run(args) -> int:
                                  contacts=args.contacts, fall_height=args.fall_height)
     except Sim2SimError as exc:
         raise SfvError(str(exc)) from None
+    if report.get("residual_wrench_dropped"):
+        print("sfv sim2sim: warning: the policy was trained with a residual root force, which no robot has; "
+              "replayed with its joints' actions alone", file=sys.stderr)
     print(json.dumps(report))
     return 0

@@ -29,6 +29,10 @@ class Replay:
         self.observer = Observer(model, meta, xml)
         action = meta["action"]
         self.scale = np.asarray(action["scale"], dtype=np.float64)
+        # A policy trained with a residual root wrench outputs six numbers more; no robot has that
+        # actuator, so the replay plays the joints' part alone (the body without the help).
+        self.joint_dims = int(action.get("dim", len(self.scale)))
+        self.wrench_dropped = action.get("residual_wrench") is not None
         self.lead = int(action.get("lead_steps", 0))
         self.residual = action.get("offset") == "reference_targets"
         self.lower, self.upper = (np.asarray(limit, dtype=np.float64) for limit in meta["target_limits"])
@@ -57,7 +61,7 @@ class Replay:
     def targets(self, action: np.ndarray) -> np.ndarray:
         """PD targets of an action on the step from the current row (towards row + 1)."""
         offset = self.reference_targets[min(self.row + 1 + self.lead, len(self.reference_targets) - 1)] if self.residual else 0.0
-        return np.clip(offset + self.scale * np.clip(action, -1.0, 1.0), self.lower, self.upper)
+        return np.clip(offset + self.scale * np.clip(action[:self.joint_dims], -1.0, 1.0), self.lower, self.upper)
 
     def substeps(self) -> int:
         """Physics steps of the control step from the current row."""
@@ -187,7 +191,8 @@ def run_sim2sim(policy_path: str | os.PathLike, robot_xml: str | os.PathLike, ph
     report = {"policy": str(policy.path), "robot_xml": str(robot_xml), "character": meta.get("character"), "motion": meta.get("motion"),
               "physics_hz": replay.physics_hz, "trained_physics_hz": float(meta["physics_hz"]), "control_hz": replay.control_hz,
               "contacts": contacts, "seconds_requested": float(seconds), "seconds_limit": steps / replay.control_hz,
-              "fall_rule": fall.describe(), "episodes": [run_episode(replay, fall, steps)]}
+              "fall_rule": fall.describe(), "residual_wrench_dropped": replay.wrench_dropped,
+              "episodes": [run_episode(replay, fall, steps)]}
     if json_out is not None:
         write_json_atomic(json_out, report)
     return report

@@ -44,7 +44,8 @@ def make_tiny_run(run_dir: Path, init: str = "rsi", seed: int = 0, hidden=(64,),
     (run_dir / CONFIG_FILE).write_text(json.dumps(config.to_dict()))
     character = character_named(env.character)
     obs_dim = observation_dim(len(env.reference_obs_steps), character)
-    learner = PPOLearner(obs_dim, character.nu, config.ppo)  # exp-map actions: one per actuator
+    wrench = 6 if env.residual_force > 0 else 0  # a residual root wrench's six outputs after the joints'
+    learner = PPOLearner(obs_dim, character.nu + wrench, config.ppo)  # exp-map actions: one per actuator
     rng = np.random.default_rng(seed)
     learner.normalizer.update(torch.as_tensor(rng.normal(0.5, 3.0, size=(256, obs_dim)), dtype=torch.float32))
     with torch.no_grad():  # a visibly non-zero policy, so that exports and rollouts are not trivial

@@ -262,3 +262,27 @@ def test_bad_inputs_are_one_line_errors_naming_the_file(body, tmp_path, capsys):
         err = capsys.readouterr().err.strip()
         assert err == f"sfv: {caught.value}"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.onnx", "not_a_policy.onnx", "odd.onnx", "robot.xml", "stale.onnx"]
+
+
+def test_a_policy_with_a_residual_root_wrench_replays_its_joints_alone(tmp_path, capsys):
+    from services.export.onnx_run import export_run_onnx
+    from services.training.policy_source import load_policy_source
+
+    run = tmp_path / "helped"
+    make_tiny_run(run, hidden=(32,), env=EnvConfig(horizon_s=2.0, residual_force=0.5))
+    onnx = tmp_path / "policy.onnx"
+    export_run_onnx(run, onnx)
+    env = load_policy_source(str(run)).make_env()
+    policy = load_policy(onnx)
+    xml = _robot_xml("humanoid3d", tmp_path)
+    replay = Replay(policy, build_model(policy.meta, xml, env.config.physics.physics_hz), xml)
+    env_obs, _ = env.reset(options={"init": "fsi"})
+    obs = replay.reset()
+    action = policy.act(obs)
+    assert action.shape == (34,) and np.abs(action[28:]).max() > 0  # the wrench's outputs are there
+    env.step(policy.act(env_obs))
+    replay.step(action)
+    np.testing.assert_allclose(replay.data.ctrl, env.data.ctrl, atol=1e-5)  # the joints' targets are the env's
+    assert main(["sim2sim", str(onnx), "--robot-xml", str(xml), "--seconds", "0.2"]) == 0
+    out, err = capsys.readouterr()
+    assert json.loads(out.splitlines()[-1])["residual_wrench_dropped"] is True and "residual root force" in err
