@@ -62,6 +62,10 @@ class ResidualForce:
         self._factor += 1.0 - self.weight
         return self._factor
 
+    def push(self, i: int, data) -> None:
+        """Put env i's wrench of this step on its root (the simulator's loop calls this per env)."""
+        self.apply(data, self.root_body, self.local[i])
+
     @staticmethod
     def apply(data, body: int, wrench: np.ndarray) -> None:
         """Put one env's root-frame wrench (6,) on `body` in world coordinates (MjData.xfrc_applied)."""

@@ -48,10 +48,11 @@ class MujocoSimulator:
         divergence and fall (`fall(data)`; no rule: never) and run `captures(i, data)`.
         `residual` (a `ResidualForce` holding this step's wrenches) pushes on each env's root."""
         substeps = self.substeps
+        push = None if residual is None else residual.push
         for i, (model, data, warnings) in enumerate(self._slots):
             data.ctrl[:] = targets[i]
-            if residual is not None:
-                residual.apply(data, residual.root_body, residual.local[i])
+            if push is not None:
+                push(i, data)
             mujoco.mj_step(model, data, nstep=substeps)
             update_kinematics(model, data)
             diverged[i] = bool(warnings[0] or warnings[1] or warnings[2])  # cheaper than .any() on 3 ints

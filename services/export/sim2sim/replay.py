@@ -30,8 +30,7 @@ class Replay:
         action = meta["action"]
         self.scale = np.asarray(action["scale"], dtype=np.float64)
         # A policy trained with a residual root wrench outputs six numbers more; no robot has that
-        # actuator, so the replay plays the joints' part alone (the body without the help).
-        self.joint_dims = int(action.get("dim", len(self.scale)))
+        # actuator, so the replay plays the joints' part alone (one per scale: the body without the help).
         self.wrench_dropped = action.get("residual_wrench") is not None
         self.lead = int(action.get("lead_steps", 0))
         self.residual = action.get("offset") == "reference_targets"
@@ -61,7 +60,7 @@ class Replay:
     def targets(self, action: np.ndarray) -> np.ndarray:
         """PD targets of an action on the step from the current row (towards row + 1)."""
         offset = self.reference_targets[min(self.row + 1 + self.lead, len(self.reference_targets) - 1)] if self.residual else 0.0
-        return np.clip(offset + self.scale * np.clip(action[:self.joint_dims], -1.0, 1.0), self.lower, self.upper)
+        return np.clip(offset + self.scale * np.clip(action[:len(self.scale)], -1.0, 1.0), self.lower, self.upper)
 
     def substeps(self) -> int:
         """Physics steps of the control step from the current row."""
