@@ -26,6 +26,10 @@ from learner.atomic_io import atomic_output
 from learner.errors import SfvError
 
 DECODER_NPZ = "decoder.npz"
+# The motor module that ships in the repository (`--module pretrained`): its decoder, ONNX twin,
+# config.json and PROVENANCE.md (the commands, budgets and figures that made it).
+PRETRAINED = "pretrained"
+PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained" / "motor_module"
 REQUIRED = ("proprio_mean", "proprio_std", "input_clip", "latent_dim", "action_std", "layer0.weight", "layer0.bias")
 
 
@@ -61,6 +65,15 @@ def save_decoder_npz(weights: Mapping[str, np.ndarray], path: str | os.PathLike)
     return Path(path)
 
 
+def module_path(module: str | os.PathLike) -> Path:
+    """A module directory by name: `pretrained` is the shipped module (PRETRAINED_DIR), anything else a path."""
+    if str(module) == PRETRAINED:
+        if not (PRETRAINED_DIR / DECODER_NPZ).is_file():
+            raise SfvError(f"--module pretrained: the shipped module is missing from {PRETRAINED_DIR} (a partial checkout?)")
+        return PRETRAINED_DIR
+    return Path(module)
+
+
 class LatentDecoder:
     """pi(a | s, z)'s mean in numpy float32, batched."""
 
@@ -76,8 +89,8 @@ class LatentDecoder:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "LatentDecoder":
-        """From a module directory (its decoder.npz) or an npz file."""
-        path = Path(path)
+        """From a module directory (its decoder.npz), an npz file, or `pretrained`."""
+        path = module_path(path)
         if path.is_dir():
             path = path / DECODER_NPZ
         if not path.is_file():

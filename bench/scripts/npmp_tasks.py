@@ -1,9 +1,11 @@
 """Task policies on the motor module against from-scratch joint-space policies (issue 16 item 5).
 
     python bench/scripts/npmp_tasks.py --module MODULE --runs-dir DIR [--tasks go_to,push_box]
-                               [--actions latent,joint] [--samples 750000] [--workers 2]
+                               [--actions latent,joint,zero] [--seeds 0,1,2] [--samples 750000] [--workers 2]
 
-For each task x action space: trains a run in DIR/<task>_<action> with the same sample budget
+`zero` is the chance line: no policy, the frozen decoder at z = 0 throughout (what walking
+ahead from the start earns), evaluated on the latent runs' env without training.
+For each task x action space x seed: trains a run in DIR/<task>_<action>[_s<seed>] with the same sample budget
 (resuming a run that stopped early, skipping one that is complete), evaluates it (`sfv task
 eval`: 32 deterministic episodes), renders 2 episodes to DIR/<task>_<action>.mp4, and merges
 the figures into bench/results/npmp_tasks.json (entries of other task x action pairs already
@@ -54,13 +56,42 @@ def train(task: str, action: str, args, run_dir: Path) -> float:
     return time.perf_counter() - started
 
 
+class ZeroLatents:
+    """The chance line's `NumpyPolicy` stand-in: z = 0 for every env, every step."""
+
+    def __init__(self, latent_dim: int):
+        self.latent_dim = latent_dim
+
+    def mean(self, obs):
+        import numpy as np
+
+        return np.zeros((len(obs), self.latent_dim), np.float32)
+
+
+def measure_zero(task: str, args) -> dict:
+    from actors.envs.tasks.config import TaskEnvConfig
+    from actors.envs.tasks.motor_module import load_decoder
+    from services.tasks.evaluation import evaluate_task
+
+    env = TaskEnvConfig(task=task, action="latent", module=args.module)
+    _, latent_dim = load_decoder(args.module)
+    return {"run": None, "samples": 0, "module": args.module,
+            **evaluate_task(env, None, args.episodes, seed=1000, policy=ZeroLatents(latent_dim))}
+
+
+def run_name(task: str, action: str, seed: int) -> str:
+    return f"{task}_{action}" + (f"_s{seed}" if seed else "")
+
+
 def measure(task: str, action: str, args) -> dict:
     from services.tasks.run_dir import load_task_run
     from services.tasks.evaluation import evaluate_task
     from services.tasks.video import render_task
     from services.training.run_dir import read_metrics
 
-    run_dir = Path(args.runs_dir) / f"{task}_{action}"
+    if action == "zero":
+        return measure_zero(task, args)
+    run_dir = Path(args.runs_dir) / run_name(task, action, args.seed)
     seconds = train(task, action, args, run_dir)
     config, weights = load_task_run(run_dir)
     rows = read_metrics(run_dir)
@@ -69,7 +100,7 @@ def measure(task: str, action: str, args) -> dict:
     for p in THRESHOLDS:
         entry[f"samples_to_success_{p}"] = samples_to_success(rows, p)
     entry["final_training_success_rate"] = rows[-1].get("success_rate")
-    video = Path(args.runs_dir) / f"{task}_{action}.mp4"
+    video = Path(args.runs_dir) / f"{run_name(task, action, args.seed)}.mp4"
     entry["video"] = render_task(config.env, weights, video, episodes=2, seed=1000, label=f"{task} - {action}")
     return entry
 
@@ -87,6 +118,7 @@ def plot(results: dict, out: Path) -> None:
 
     from services.training.run_dir import read_metrics
 
+    results = {key: entry for key, entry in results.items() if entry.get("run")}  # the chance line has no curve
     tasks = sorted({key.split("/")[0] for key in results})
     fig, axes = plt.subplots(2, len(tasks), figsize=(6 * len(tasks), 7), squeeze=False)
     for column, task in enumerate(tasks):
@@ -96,7 +128,7 @@ def plot(results: dict, out: Path) -> None:
             rows = [r for r in read_metrics(Path(entry["run"])) if r.get("success_rate") is not None]
             samples = [r["samples"] for r in rows]
             for row, metric in enumerate(("success_rate", "fall_rate")):
-                axes[row][column].plot(samples, smoothed([r[metric] for r in rows]), label=key.split("/")[1])
+                axes[row][column].plot(samples, smoothed([r[metric] for r in rows]), label="/".join(key.split("/")[1:]))
         axes[0][column].set(title=f"{task}: training episodes reaching a target", xlabel="samples", ylabel="success rate (10-iteration mean)")
         axes[1][column].set(title=f"{task}: training episodes ending in a fall", xlabel="samples", ylabel="fall rate (10-iteration mean)")
         for ax in axes[:, column]:
@@ -119,7 +151,7 @@ def main(argv=None) -> int:
     p.add_argument("--envs-per-worker", type=int, default=16)
     p.add_argument("--runner", default="ray")
     p.add_argument("--torch-threads", type=int, default=1)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seeds", default="0", help="comma-separated training seeds (a run per seed)")
     p.add_argument("--episodes", type=int, default=32)
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--results", default=str(RESULTS / "npmp_tasks.json"))
@@ -128,9 +160,12 @@ def main(argv=None) -> int:
     results = json.loads(out.read_text())["runs"] if out.is_file() else {}
     for task in args.tasks.split(","):
         for action in args.actions.split(","):
-            results[f"{task}/{action}"] = measure(task, action, args)
-            atomic_write_json(out, {"bench": "npmp_tasks", "budget_samples": args.samples, "runs": results})
-            print(json.dumps({f"{task}/{action}": results[f"{task}/{action}"]}), flush=True)
+            for seed in ([0] if action == "zero" else [int(s) for s in args.seeds.split(",")]):
+                args.seed = seed
+                key = f"{task}/{action}" + (f"/s{seed}" if action != "zero" else "")
+                results[key] = measure(task, action, args)
+                atomic_write_json(out, {"bench": "npmp_tasks", "budget_samples": args.samples, "runs": results})
+                print(json.dumps({key: results[key]}), flush=True)
     plot(results, out.with_suffix(".png"))
     return 0
 

@@ -4,13 +4,15 @@
     sfv experts table DIR [CLIP...] [--table-out OUT] [--episodes E] [--parallel K]   (default: every trained clip and its mirror)
     sfv experts render DIR CLIP --video FILE.mp4 [--seconds T]   (CLIP may be <clip>_mirror)
 
-CLIPS are DeepMimic clip names, `<clip>_mirror` (served by symmetry, not trained) or `all`.
+CLIPS are DeepMimic clip names, motion files (a clip named by the file's stem: a bent walk from
+`sfv motion bend`), `<clip>_mirror` (served by symmetry, not trained) or `all`.
 --character g1 trains them on the Unitree G1 (the clips retargeted at load); an experts
 directory holds one body's experts; mirrored experts act through their original's on either body.
 """
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 
 HELP = "train one tracking expert per clip (resumable Ray job), or `table DIR` to evaluate them"  # the one line `sfv --help` lists (without importing the command)
@@ -27,7 +29,8 @@ def register(sub) -> None:
                              "       sfv experts render DIR CLIP --video FILE.mp4 [--seconds T]",
                        description="Tracking experts (NPMP, 004 §3.2): one standard run directory DIR/<clip>/ per clip, "
                                    "finished clips skipped, partial ones resumed; <clip>_mirror comes from <clip>'s expert by "
-                                   "left/right symmetry (on either body); `all` is every DeepMimic clip and its mirror. "
+                                   "left/right symmetry (on either body); `all` is every DeepMimic clip and its mirror; a motion file "
+                                   "(.npz, .json, .bvh) is a clip named by its stem. "
                                    "--character g1 trains the experts on the Unitree G1 (a directory holds one body's experts). "
                                    "`table DIR` writes "
                                    "DIR/experts.json, experts.md and the Fig. 3B plot experts_tracking.png.")
@@ -55,7 +58,7 @@ def run(args) -> int:
     import logging
 
     from learner.errors import SfvError
-    from services.experts.job import HUMANOID, default_parallel, expand_clips, run_experts_job
+    from services.experts.job import HUMANOID, default_parallel, expand_clips, known_runs, run_experts_job
     from services.experts.library import directory_character
     from services.experts.table import build_table, markdown_table
 
@@ -75,7 +78,8 @@ def run(args) -> int:
             raise SfvError("sfv experts table: give the experts directory (sfv experts table DIR [CLIP...])")
         # The body is the runs' own (config.json): a mirror is refused only for a body without hinge mirror signs.
         found = directory_character(args.clips[1])
-        clips = expand_clips(args.clips[2:], found[0] if found else HUMANOID) if len(args.clips) > 2 else None
+        clips = (expand_clips(args.clips[2:], found[0] if found else HUMANOID, known_runs(Path(args.clips[1])))
+                 if len(args.clips) > 2 else None)
         print(markdown_table(build_table(args.clips[1], clips, **table_args)), end="")
         return 0
     if args.out is None:

@@ -4,6 +4,7 @@
     sfv task SPEC [--module MODULE] --out RUN            (a registered task spec: npmp-go-to-latent, ...)
     sfv task eval RUN [--episodes 32] [--seed K]        (one JSON object)
     sfv task render RUN --video OUT.mp4 [--episodes 2]
+    sfv task heatmap RUN --out heatmap.png [--episodes 2]   (go-to success against the target's position, 004 Fig. 6B)
 
 `--action latent` trains a policy that outputs z for the module's frozen decoder; `--action
 joint` trains absolute PD targets from scratch (no module needed). The run directory is a
@@ -44,14 +45,15 @@ def register(sub) -> None:
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     from services.specs import specs_for
 
-    p.add_argument("what", choices=(*TASK_NAMES, "eval", "render", *specs_for("task")),
-                   help="a task to train, a registered task spec (npmp-go-to-latent, ...), or eval / render a run")
+    p.add_argument("what", choices=(*TASK_NAMES, "eval", "render", "heatmap", *specs_for("task")),
+                   help="a task to train, a registered task spec (npmp-go-to-latent, ...), or eval / render / heatmap a run")
     p.add_argument("run", nargs="?", default=None, help="run directory (eval, render)")
-    p.add_argument("--out", default=None, help="run directory to train into")
+    p.add_argument("--out", default=None, help="run directory to train into; heatmap: the PNG to write (its figures beside it as .json)")
     p.add_argument("--config", default=None, metavar="FILE.yaml", help="settings from a YAML file (the run's config.json layout); flags given win")
     p.add_argument("--resume", action="store_true", help="continue the run in --out from its newest checkpoint")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--episodes", type=int, default=None, help="eval: episodes (default 32); render: episodes filmed (default 2)")
+    p.add_argument("--episodes", type=int, default=None, help="eval: episodes (default 32); render: episodes filmed (default 2); "
+                   "heatmap: episodes per cell (default 2)")
     p.add_argument("--video", default=None, help="render: the MP4 to write")
     add_config_flags(p, title="settings (each a TaskConfig field; --seed is also eval's and render's episode seed)",
                      schema=task_schema())
@@ -141,8 +143,30 @@ def _render(args) -> int:
     return 0
 
 
+def _heatmap(args) -> int:
+    from pathlib import Path
+
+    from learner.errors import SfvError
+    from learner.policy import NumpyPolicy
+    from services.tasks.heatmap import success_heatmap, write_heatmap
+    from services.tasks.run_dir import load_task_run
+
+    if not args.run or not args.out:
+        raise SfvError("sfv task heatmap: give the run directory and --out HEATMAP.png")
+    if Path(args.out).suffix.lower() != ".png":
+        raise SfvError(f"sfv task heatmap: --out {args.out}: give a .png path")
+    config, weights = load_task_run(args.run)
+    per_cell = 2 if args.episodes is None else args.episodes
+    record = success_heatmap(config.env, NumpyPolicy(weights, max_batch=256), episodes_per_cell=per_cell, seed=getattr(args, "seed", 0))
+    write_heatmap(record | {"run": args.run, "action": config.env.action}, Path(args.out), f"{args.run} ({config.env.action})")
+    print(json.dumps({"run": args.run, "out": args.out, "success_mean": record["success_mean"], "fall_rate_mean": record["fall_rate_mean"]}))
+    return 0
+
+
 def run(args) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    if args.what == "heatmap":
+        return _heatmap(args)
     if args.what == "eval":
         return _evaluate(args)
     if args.what == "render":

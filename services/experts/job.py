@@ -10,7 +10,9 @@ settings, the budget raised), any other starts afresh. A killed job resumes the 
 
 Mirrored clips (`<clip>_mirror`) are not trained: `MirroredExpert` serves them from their
 original's expert, so asking for one trains its original. `all` is every DeepMimic
-humanoid3d clip in pybullet_data and its mirror.
+humanoid3d clip in pybullet_data and its mirror. A motion file (`sfv motion bend deepmimic:walk
+--yaw-rate 30 ... --out walk_turn30.npz`) is a clip named by its stem: the locomotion variety a
+task's module needs (turns, speeds) trains in the same job.
 
 The body (`character`, `--character humanoid3d|g1`) is the template's `env.character`; each
 run's config.json remembers it, so `sfv eval` / `render` of an expert build that body. A
@@ -51,18 +53,42 @@ POLL_S = 2.0
 
 
 # ----------------------------------------------------------------------------- clip lists
-def expand_clips(names: list[str], character: str = HUMANOID) -> list[str]:
+MOTION_FILE_SUFFIXES = (".npz", ".json", ".bvh")
+
+
+def clip_motion_files(names: list[str]) -> dict[str, str]:
+    """{clip: path} for the names that are motion files (`sfv motion bend ... --out walk_turn30.npz`):
+    such a clip is named by the file's stem and trains `--motion PATH` (its mirror, `<stem>_mirror`,
+    is served by symmetry like any other)."""
+    files: dict[str, str] = {}
+    for name in names:
+        path = Path(name)
+        if path.suffix.lower() in MOTION_FILE_SUFFIXES:
+            if not path.is_file():
+                raise SfvError(f"sfv experts: {name}: no such motion file")
+            stem = path.stem
+            if stem in DEEPMIMIC_CLIPS or (stem in files and files[stem] != str(path.resolve())):
+                raise SfvError(f"sfv experts: {name}: its clip name {stem!r} is taken (rename the file)")
+            files[stem] = str(path.resolve())
+    return files
+
+
+def expand_clips(names: list[str], character: str = HUMANOID, known: tuple[str, ...] = ()) -> list[str]:
     """Clip names in order, duplicates dropped; `all` = every clip and its mirror (a body
-    without hinge mirror signs, none registered now: every clip). A name is a DeepMimic clip or
-    `<clip>_mirror`; anything else is an SfvError naming it, and so is a mirror for such a body."""
+    without hinge mirror signs, none registered now: every clip). A name is a DeepMimic clip,
+    a motion file (its stem: `clip_motion_files`), one of `known` (the experts directory's own
+    runs) or any of these with `_mirror`; anything else is an SfvError naming it, and so is a
+    mirror for such a body."""
     mirrors = character in MIRROR_CHARACTERS
+    files = clip_motion_files(names)
+    allowed = set(DEEPMIMIC_CLIPS) | set(files) | set(known)
     clips: list[str] = []
     for name in names:
         every = [c for clip in DEEPMIMIC_CLIPS for c in ((clip, clip + MIRROR_SUFFIX) if mirrors else (clip,))]
-        expanded = every if name == ALL else [name]
+        expanded = every if name == ALL else [Path(name).stem if Path(name).suffix.lower() in MOTION_FILE_SUFFIXES else name]
         for clip in expanded:
-            if clip.removesuffix(MIRROR_SUFFIX) not in DEEPMIMIC_CLIPS:
-                raise SfvError(f"sfv experts: {clip!r} is not a DeepMimic clip or <clip>{MIRROR_SUFFIX} "
+            if clip.removesuffix(MIRROR_SUFFIX) not in allowed:
+                raise SfvError(f"sfv experts: {clip!r} is not a DeepMimic clip, a motion file or <clip>{MIRROR_SUFFIX} "
                                f"(known: {', '.join(DEEPMIMIC_CLIPS)}, or all)")
             check_mirror(clip, character)
             if clip not in clips:
@@ -70,6 +96,11 @@ def expand_clips(names: list[str], character: str = HUMANOID) -> list[str]:
     if not clips:
         raise SfvError("sfv experts: no clips given (name clips, or all)")
     return clips
+
+
+def known_runs(out: Path) -> tuple[str, ...]:
+    """The run directories already in an experts directory (clips trained from files included)."""
+    return tuple(p.name for p in Path(out).iterdir() if (p / CONFIG_FILE).is_file()) if Path(out).is_dir() else ()
 
 
 def clips_to_train(clips: list[str]) -> list[str]:
@@ -118,22 +149,25 @@ def check_character(out: Path, character: str) -> None:
                        f"rerun with --character {trained}, or give another --out for the {character}")
 
 
-def expert_config(template: TrainConfig, clip: str, run_dir: Path, samples: int, curriculum_samples: int | None) -> tuple[TrainConfig, bool]:
+def expert_config(template: TrainConfig, clip: str, run_dir: Path, samples: int, curriculum_samples: int | None,
+                  motion: str | None = None) -> tuple[TrainConfig, bool]:
     """(config, resume) of one clip's training: the run's saved config with the budget raised
-    when it has a checkpoint (its character must be the template's), else the template for this clip."""
+    when it has a checkpoint (its character must be the template's), else the template for this
+    clip; `motion` is what it trains (default `deepmimic:<clip>`; a file for a file's clip)."""
+    motion = motion or f"deepmimic:{clip}"
     done = samples_done(run_dir)
     settings = dict(out=str(run_dir), samples=int(samples), runner=template.runner, workers=template.workers,
                     torch_threads=template.torch_threads, plot_every=template.plot_every)
     if done > 0:
         config = read_run_config(run_dir)
-        if config.motion != f"deepmimic:{clip}":
-            raise SfvError(f"{run_dir / CONFIG_FILE}: trains {config.motion}, not deepmimic:{clip}")
+        if config.motion != motion:
+            raise SfvError(f"{run_dir / CONFIG_FILE}: trains {config.motion}, not {motion}")
         if config.env.character != template.env.character:
             raise SfvError(f"sfv experts: {run_dir} is a {config.env.character} expert, not {template.env.character}: "
                            f"rerun with --character {config.env.character}, or give another --out")
         return dataclasses.replace(config, **settings), True
     curriculum = template.curriculum_samples if curriculum_samples is None else curriculum_samples
-    config = dataclasses.replace(template, motion=f"deepmimic:{clip}", job_id=None, curriculum_samples=int(curriculum), **settings)
+    config = dataclasses.replace(template, motion=motion, job_id=None, curriculum_samples=int(curriculum), **settings)
     return config, False
 
 
@@ -187,8 +221,9 @@ def run_experts_job(clips: list[str], out: str | Path, samples: int = DEFAULT_SA
     if character is not None:
         template = with_character(template, character)
     character = template.env.character
-    clips = expand_clips(clips, character)
     out = Path(out)
+    files = clip_motion_files(clips)
+    clips = expand_clips(clips, character, known_runs(out))
     check_character(out, character)
     out.mkdir(parents=True, exist_ok=True)
     if curriculum_samples is None and template.curriculum_samples > samples:
@@ -200,7 +235,8 @@ def run_experts_job(clips: list[str], out: str | Path, samples: int = DEFAULT_SA
     pending: list[tuple[str, TrainConfig, bool]] = []
     for clip in clips_to_train(clips):
         run_dir = out / clip
-        config, resume = expert_config(template, clip, run_dir, samples, curriculum_samples)
+        motion = files.get(clip) or (read_run_config(run_dir).motion if clip not in DEEPMIMIC_CLIPS else None)
+        config, resume = expert_config(template, clip, run_dir, samples, curriculum_samples, motion)
         config.validate()
         done = samples_done(run_dir) if resume else 0
         if done >= samples:

@@ -193,6 +193,29 @@ class Distiller:
         self.checkpoint()
         plot_loss_curve(self.out)
         export_module(self.out, self.module)
+        record_latent_range(self.out, self.latent_range())
+
+    def latent_range(self, windows: int = 1024) -> dict:
+        """Where the encoder puts z on the training data: its posterior means over `windows`
+        sequences (z_t-1 chained through each window, as in training), per component. A task
+        policy's action box (`--latent-scale`) should cover this range and not much more:
+        beyond it the decoder was never trained."""
+        import torch
+
+        starts = np.random.default_rng(self.config.seed + 4).choice(self.sampler.train_starts, size=windows)
+        _, future, _ = self._batch(self.sampler.rows(starts))
+        with torch.no_grad():
+            z_prev = future.new_zeros(windows, self.config.latent_dim)
+            means = []
+            for t in range(future.shape[1]):
+                z_prev, _ = self.module.encode(future[:, t], z_prev)
+                means.append(z_prev)
+        mu = torch.stack(means, dim=1).reshape(-1, self.config.latent_dim).cpu().numpy()
+        absolute = np.abs(mu)
+        return {"windows": int(windows), "prior_std": self.config.prior_std,
+                "abs_p50": float(np.percentile(absolute, 50)), "abs_p95": float(np.percentile(absolute, 95)),
+                "abs_p99": float(np.percentile(absolute, 99)), "std_per_component": mu.std(axis=0).round(4).tolist(),
+                "components_used": int((mu.std(axis=0) > 0.1 * self.config.prior_std).sum())}
 
 
 def export_module(out: Path, module) -> None:
@@ -206,6 +229,14 @@ def export_module(out: Path, module) -> None:
     weights = module.decoder_weights()
     save_decoder_npz(weights, out / DECODER_NPZ)
     export_decoder_onnx(weights, out / "decoder.onnx")
+
+
+def record_latent_range(out: Path, latent_range: dict) -> None:
+    """Add the encoder's latent range to the module's config.json (`Distiller.latent_range`)."""
+    path = Path(out) / CONFIG_FILE
+    record = json.loads(path.read_text())
+    record["latent_range"] = latent_range
+    atomic_write_json(path, record, sort_keys=True)
 
 
 def load_module(directory: Path):

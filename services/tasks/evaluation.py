@@ -23,13 +23,16 @@ from services.tasks.motion_likeness import MotionLibrary
 from services.tasks.pose_prior import PosePrior, clip_poses
 
 
-def run_episodes(env: VectorTaskEnv, policy: NumpyPolicy) -> tuple[dict[str, np.ndarray], list[np.ndarray]]:
-    """Each env's first episode from `env.reset()`: (per-episode arrays, each episode's (T, 28) poses)."""
+def run_episodes(env: VectorTaskEnv, policy: NumpyPolicy, after_reset=None) -> tuple[dict[str, np.ndarray], list[np.ndarray]]:
+    """Each env's first episode from `env.reset()`: (per-episode arrays, each episode's (T, 28)
+    poses). `after_reset(env)` may place the episodes' first targets (it returns the observations)."""
     n = env.num_envs
     first: dict[str, list] = {}
     done = np.zeros(n, bool)
     poses: list[list[np.ndarray]] = [[] for _ in range(n)]
     obs = env.reset()
+    if after_reset is not None:
+        obs = after_reset(env)
     env.episodes.drain()
     while not done.all():
         obs, _, terminated, truncated, _ = env.step(policy.mean(obs))
@@ -48,14 +51,16 @@ def run_episodes(env: VectorTaskEnv, policy: NumpyPolicy) -> tuple[dict[str, np.
     return {k: np.asarray(v) for k, v in first.items()}, sequences
 
 
-def evaluate_task(env_config, weights: dict, episodes: int = 32, seed: int = 0, prior: PosePrior | None = None,
-                  library: MotionLibrary | None = None) -> dict:
+def evaluate_task(env_config, weights: dict | None, episodes: int = 32, seed: int = 0, prior: PosePrior | None = None,
+                  library: MotionLibrary | None = None, policy=None) -> dict:
+    """The figures of the module docstring for `weights` (a task run's policy), or for `policy`
+    (anything with `mean(obs)`: the chance line's z = 0 of `bench/scripts/npmp_tasks.py`)."""
     from threadpoolctl import threadpool_limits
 
     prior = prior or PosePrior.fit()
     library = library or MotionLibrary.fit()
     env = VectorTaskEnv(env_config, episodes, seed=seed)
-    policy = NumpyPolicy(weights, max_batch=episodes)
+    policy = policy or NumpyPolicy(weights, max_batch=episodes)
     with threadpool_limits(1, user_api="blas"):
         per_episode, sequences = run_episodes(env, policy)
     poses = np.concatenate(sequences)

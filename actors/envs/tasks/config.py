@@ -17,12 +17,15 @@ ACTION_SPACES = ("latent", "joint")
 class TaskEnvConfig:
     task: str = field(default="go_to", metadata={"choices": TASKS, "help": "go_to (a target at a requested speed and heading) or push_box"})
     action: str = field(default="latent", metadata={"choices": ACTION_SPACES, "help": "latent: the policy outputs z for the frozen decoder; joint: absolute exp-map PD targets, from scratch"})
-    module: str | None = field(default=None, metadata={"help": "motor module directory (config.json, decoder.npz, decoder.onnx); needed for --action latent"})
+    module: str | None = field(default="pretrained", metadata={"help": "motor module directory (config.json, decoder.npz, decoder.onnx) for --action latent; "
+                               "`pretrained`: the module that ships in learner/pretrained/motor_module (its PROVENANCE.md says how it was made)"})
     latent_scale: float = field(default=1.0, metadata={"help": "z = latent_scale x action: the policy's [-1, 1] action box maps to +-latent_scale prior standard deviations"})
     control_hz: float = field(default=30.0, metadata={"help": "policy (and decoder) queries per second"})
     physics: PhysicsConfig = field(default_factory=PhysicsConfig, metadata={"help": "MuJoCo model settings"})
     horizon_s: float = field(default=10.0, metadata={"help": "episode length (seconds); the horizon truncates, a fall terminates"})
-    start_motion: str = field(default="deepmimic:walk", metadata={"help": "episodes start from a random frame of this clip (a pose the experts know), moved to the origin"})
+    start_motion: str = field(default="deepmimic:walk,deepmimic:run", metadata={"help": "episodes start from a random frame of one of these clips "
+                              "(comma-separated; poses the experts know), moved to the origin: walk and run frames give starts at 1.3 and 3.6 m/s "
+                              "(004 Supp. D starts each phase from its own mocap frames)"})
     # go-to
     target_distance: tuple[float, float] = field(default=(2.0, 5.0), metadata={"help": "go-to: target distance range (m), direction uniform on the circle"})
     speed_range: tuple[float, float] = field(default=(0.8, 2.5), metadata={"help": "go-to: requested speed range (m/s), drawn per target"})
@@ -62,6 +65,8 @@ class TaskEnvConfig:
         for name in ("latent_scale", "control_hz", "horizon_s", "success_radius"):
             if not getattr(self, name) > 0:
                 out.append(f"--{name.replace('_', '-')} must be positive, got {getattr(self, name)}")
+        if not any(name.strip() for name in self.start_motion.split(",")):
+            out.append("--start-motion must name at least one clip")
         for name in ("target_distance", "speed_range", "box_distance", "box_target_distance"):
             lo, hi = getattr(self, name)
             if not 0 < lo <= hi:

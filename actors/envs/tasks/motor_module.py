@@ -21,8 +21,11 @@ _LATENT_KEYS = ("latent_size", "latent_dim", "z_dim")
 
 
 def load_decoder(module_dir: str | Path):
-    """(decoder, latent size) of a motor module directory; one-line SfvError when it is not one."""
-    path = Path(module_dir)
+    """(decoder, latent size) of a motor module directory (or `pretrained`, the shipped one);
+    one-line SfvError when it is not one."""
+    from learner.motor_decoder import module_path
+
+    path = module_path(module_dir)
     if not (path / "config.json").is_file():
         raise SfvError(f"{path}: not a motor module (no config.json; `sfv distill` writes one)")
     try:

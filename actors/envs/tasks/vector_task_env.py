@@ -157,6 +157,15 @@ class VectorTaskEnv:
             self._observe()
         return self.obs, self.rewards, self.terminated, self.truncated, self.final_obs
 
+    def planar_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(root xy (M, 2), centre-of-mass velocity xy (M, 2), yaw (M,)) of every env now."""
+        return self._planar()
+
+    def refresh_observations(self) -> np.ndarray:
+        """The observations again, after a caller changed a task's targets (the heatmap's placement)."""
+        self._observe()
+        return self.obs
+
     def _planar(self):
         f = self.features
         yaw = np.arctan2(f.root_xmat[:, 3], f.root_xmat[:, 0])

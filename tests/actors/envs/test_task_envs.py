@@ -112,13 +112,12 @@ def test_task_worker_sample_matches_the_rollout_contract():
     learner.update(batch)  # the learner takes it as it is
 
 
-def test_latent_without_module_is_one_clear_error(tmp_path, capsys):
+def test_a_module_that_is_not_one_is_one_clear_error(tmp_path, capsys):
     from services.cli import main
 
-    assert main(["task", "go-to", "--out", str(tmp_path / "run")]) == 2
-    assert "--module" in capsys.readouterr().err
     assert main(["task", "go-to", "--module", str(tmp_path), "--out", str(tmp_path / "run")]) == 2
     assert "not a motor module" in capsys.readouterr().err
+    assert "--module" in " ".join(TaskEnvConfig(module=None).problems())
 
 
 def test_pose_prior_prefers_expert_poses_to_random_ones():
@@ -163,3 +162,16 @@ def test_torso_on_the_push_box_is_a_fall_but_a_hand_on_it_is_not():
     out = (wrist[:2] - pelvis[:2]) / np.linalg.norm(wrist[:2] - pelvis[:2])
     fell, touching = _box_contacts_after(env, data, (*(wrist[:2] + out * (half[0] + 0.02)), wrist[2]))
     assert "right_wrist" in touching and not fell  # a hand pushing
+
+
+def test_starts_come_from_every_listed_clip_at_their_own_speeds():
+    from actors.character.humanoid import PhysicsConfig
+    from actors.envs.tasks.starts import ClipStarts
+
+    starts = ClipStarts("deepmimic:walk, deepmimic:run", PhysicsConfig(), 1.0 / 30.0)
+    rng = np.random.default_rng(0)
+    speeds = np.array([np.linalg.norm(starts.take(rng)[1][:2]) for _ in range(200)])
+    walk_like, run_like = (speeds < 2.0).mean(), (speeds > 2.5).mean()
+    assert 0.3 < walk_like < 0.7 and 0.3 < run_like < 0.7  # a clip is drawn first: about half each
+    assert all(abs(q[:, :2]).max() == 0.0 for q in starts.qpos)  # every start above the origin
+    assert "--start-motion must name at least one clip" in TaskEnvConfig(start_motion=" , ").problems()

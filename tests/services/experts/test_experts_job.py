@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
 
@@ -56,6 +57,28 @@ def test_job_refuses_a_run_directory_of_another_clip(tmp_path):
     (out / "kick").rename(out / "punch")
     with pytest.raises(SfvError, match="trains deepmimic:kick, not deepmimic:punch"):
         run_experts_job(["punch"], out, samples=256, parallel=1, template=tiny_template(256), progress=False)
+
+
+def test_a_motion_file_is_a_clip_named_by_its_stem(tmp_path):
+    from actors.motion.bend import bend_motion
+    from actors.motion.formats.io import load_motion, save_motion
+
+    clip = tmp_path / "walk_turn45.npz"
+    save_motion(bend_motion(load_motion("deepmimic:walk"), yaw_rate=math.radians(45.0), seconds=2.0, name="walk_turn45"), clip)
+    assert expand_clips([str(clip), "walk_turn45_mirror", "kick"]) == ["walk_turn45", "walk_turn45_mirror", "kick"]
+    with pytest.raises(SfvError, match="no such motion file"):
+        expand_clips([str(tmp_path / "missing.npz")])
+    out = tmp_path / "experts"
+    summary = run_experts_job([str(clip)], out, samples=128, parallel=1, template=tiny_template(128), progress=False)
+    assert summary["status"]["walk_turn45"]["state"] == "trained"
+    assert json.loads((out / "walk_turn45" / CONFIG_FILE).read_text())["motion"] == str(clip.resolve())
+    # Later commands name it by its run directory (resume, table), and its mirror is served by symmetry.
+    assert run_experts_job(["walk_turn45"], out, samples=128, parallel=1, template=tiny_template(128),
+                           progress=False)["status"]["walk_turn45"]["state"] == "finished"
+    from services.experts.library import load_expert
+
+    mirrored = load_expert(out, "walk_turn45_mirror", max_batch=1)
+    assert mirrored.motion == str(clip.resolve()) + "_mirror" and mirrored.make_env() is not None
 
 
 def test_table_of_a_tiny_expert_and_its_mirror(tmp_path):

@@ -43,6 +43,9 @@ def test_distill_two_tiny_experts_into_a_module(experts, tmp_path, capsys):
         assert (module_dir / name).is_file(), name
     record = json.loads((module_dir / "config.json").read_text())
     assert record["held_out"] == ["stand_b"] and record["clips"] == ["stand_a"] and record["module"]["latent_dim"] == 4
+    latent_range = record["latent_range"]  # where the encoder puts z on the training data
+    assert len(latent_range["std_per_component"]) == 4 and 0 <= latent_range["components_used"] <= 4
+    assert 0 <= latent_range["abs_p50"] <= latent_range["abs_p95"] <= latent_range["abs_p99"]
     rows = [json.loads(line) for line in (module_dir / "metrics.jsonl").read_text().splitlines()]
     assert rows[-1]["update"] == 12 and "val/loss" in rows[-1] and np.isfinite(rows[-1]["loss"])
     decoder = LatentDecoder.load(module_dir)
