@@ -36,6 +36,9 @@ LEVERS: dict[str, list[str]] = {
     "fixed_0.3": ["--no-learn-action-std", "--init-action-std", "0.3"],
     "fixed_0.1_beta_1": ["--no-learn-action-std", "--init-action-std", "0.1", "--beta", "1.0"],
     "fixed_0.3_beta_1": ["--no-learn-action-std", "--init-action-std", "0.3", "--beta", "1.0"],
+    "learned_beta_0.3": ["--beta", "0.3"],
+    "learned_beta_1": ["--beta", "1.0"],
+    "learned_beta_3": ["--beta", "3.0"],
     "fixed_0.1_window_30": ["--no-learn-action-std", "--init-action-std", "0.1", "--window", "30", "--batch-windows", "22"],
     "fixed_0.1_white_prior": ["--no-learn-action-std", "--init-action-std", "0.1", "--alpha", "0.0"],
 }
@@ -50,6 +53,19 @@ def distil(lever: str, args, out: Path) -> subprocess.Popen | None:
         command.append("--resume")
     log = open(out.parent / f"{lever}.log", "a")
     return subprocess.Popen(command, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)
+
+
+def record_shared_dataset(args) -> None:
+    """The dataset every lever shares, recorded once before the levers start (`sfv distill` would
+    record it into --dataset too, but two at once would write the same directory)."""
+    from services.motor.dataset import MANIFEST
+    from services.motor.recorder import RecordConfig, expert_clips, record_dataset
+
+    if (args.dataset / MANIFEST).is_file():
+        return
+    clips = expert_clips(args.experts, args.clips)
+    manifest = record_dataset(args.experts, clips, args.dataset, RecordConfig(steps_per_clip=args.steps_per_clip), progress=False)
+    print(f"dataset {args.dataset}: {manifest['steps']} steps of {len(manifest['clips'])} clips", file=sys.stderr)
 
 
 def validation_figures(module_dir: Path) -> dict:
@@ -104,6 +120,8 @@ def main(argv=None) -> int:
     p.add_argument("--updates", type=int, default=6000)
     p.add_argument("--parallel", type=int, default=2)
     p.add_argument("--hold-out", nargs="+", default=["walk_turn30_mirror"])
+    p.add_argument("--clips", nargs="+", default=None, help="clips recorded into the dataset (default: every expert and its mirror)")
+    p.add_argument("--steps-per-clip", type=int, default=12_000)
     p.add_argument("--one-shot", nargs="+", default=["walk", "run", "walk_turn60", "walk_turn30", "walk_turn30_mirror"])
     p.add_argument("--one-shot-episodes", type=int, default=8)
     p.add_argument("--episodes", type=int, default=32, help="prior-sample episodes per stream")
@@ -115,6 +133,7 @@ def main(argv=None) -> int:
         raise SystemExit(f"npmp_levers: unknown lever(s) {unknown} (known: {', '.join(LEVERS)})")
     args.runs_dir.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
+    record_shared_dataset(args)
     pending = list(levers)
     running: dict[str, subprocess.Popen] = {}
     while pending or running:

@@ -54,7 +54,8 @@ def run_stream(module: str, name: str, alpha: float, sigma: float, latent_dim: i
     config = TaskEnvConfig(task="go_to", action="latent", module=module, latent_scale=LATENT_SCALE)
     env = VectorTaskEnv(config, episodes, seed=seed)
     stream = LatentStream(episodes, latent_dim, alpha, sigma, seed + 1, zero=name == "zero")
-    per_episode, poses = run_episodes(env, stream)
+    per_episode, sequences = run_episodes(env, stream)  # each episode's (T, 28) poses
+    poses = np.concatenate(sequences)
     return {"alpha": alpha if name != "zero" else None, "fall_rate": float(per_episode["fell"].mean()),
             "episode_seconds": float(per_episode["lengths"].mean() / config.control_hz),
             "pose_log_density": float(prior.log_density(poses).mean()) if len(poses) else None}

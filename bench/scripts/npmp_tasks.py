@@ -37,6 +37,18 @@ def samples_to_success(rows: list[dict], threshold: float) -> int | None:
     return None
 
 
+def ppo_overrides(pairs: list[str]) -> dict:
+    """`--ppo policy_lr=3e-4 update_epochs=4` as PPOConfig field values (numbers parsed as JSON)."""
+    out = {}
+    for pair in pairs:
+        key, _, value = pair.partition("=")
+        try:
+            out[key] = json.loads(value)
+        except ValueError:
+            out[key] = value
+    return out
+
+
 def train(task: str, action: str, args, run_dir: Path) -> float:
     from actors.envs.tasks.config import TaskEnvConfig
     from services.tasks.config import TaskConfig, task_ppo
@@ -46,10 +58,13 @@ def train(task: str, action: str, args, run_dir: Path) -> float:
     rows = read_metrics(run_dir)
     if rows and rows[-1]["samples"] >= args.samples:
         return 0.0
+    import dataclasses
+
+    ppo = dataclasses.replace(task_ppo(action), **ppo_overrides(args.ppo))
     config = TaskConfig(out=str(run_dir), workers=args.workers, envs_per_worker=args.envs_per_worker, samples=args.samples,
                         seed=args.seed, runner=args.runner, torch_threads=args.torch_threads,
                         env=TaskEnvConfig(task=task, action=action, module=args.module if action == "latent" else None),
-                        ppo=task_ppo(action))
+                        ppo=ppo)
     started = time.perf_counter()
     with TaskTrainer(config, resume=bool(checkpoint_files(run_dir)), progress=not args.quiet) as trainer:
         trainer.run()
@@ -75,15 +90,30 @@ def measure_zero(task: str, args) -> dict:
 
     env = TaskEnvConfig(task=task, action="latent", module=args.module)
     _, latent_dim = load_decoder(args.module)
-    return {"run": None, "samples": 0, "module": args.module,
-            **evaluate_task(env, None, args.episodes, seed=1000, policy=ZeroLatents(latent_dim))}
+    entry = {"run": None, "samples": 0, "module": args.module,
+             **evaluate_task(env, None, args.episodes, seed=1000, policy=ZeroLatents(latent_dim))}
+    if task == "go_to":
+        entry["heatmap"] = heatmap(env, ZeroLatents(latent_dim), f"{task}_zero", args)
+    return entry
 
 
-def run_name(task: str, action: str, seed: int) -> str:
-    return f"{task}_{action}" + (f"_s{seed}" if seed else "")
+def heatmap(env_config, policy, name: str, args) -> dict:
+    """004 Fig. 6B for this policy: bench/results/npmp/heatmap_<run>.png (+ .json); the mean figures."""
+    from services.tasks.heatmap import success_heatmap, write_heatmap
+
+    record = success_heatmap(env_config, policy, seed=1000)
+    path = Path(args.results).parent / "npmp" / f"heatmap_{name}.png"
+    write_heatmap(record, path, name)
+    return {"png": str(path.relative_to(RESULTS.parent.parent)) if path.is_relative_to(RESULTS.parent.parent) else str(path),
+            "success_mean": record["success_mean"], "fall_rate_mean": record["fall_rate_mean"]}
+
+
+def run_name(task: str, action: str, seed: int, label: str = "") -> str:
+    return f"{task}_{action}" + (f"_{label}" if label else "") + (f"_s{seed}" if seed else "")
 
 
 def measure(task: str, action: str, args) -> dict:
+    from learner.policy import NumpyPolicy
     from services.tasks.run_dir import load_task_run
     from services.tasks.evaluation import evaluate_task
     from services.tasks.video import render_task
@@ -91,16 +121,18 @@ def measure(task: str, action: str, args) -> dict:
 
     if action == "zero":
         return measure_zero(task, args)
-    run_dir = Path(args.runs_dir) / run_name(task, action, args.seed)
+    run_dir = Path(args.runs_dir) / run_name(task, action, args.seed, args.label)
     seconds = train(task, action, args, run_dir)
     config, weights = load_task_run(run_dir)
     rows = read_metrics(run_dir)
-    entry = {"run": str(run_dir), "samples": rows[-1]["samples"], "train_seconds_this_call": seconds,
+    entry = {"run": str(run_dir), "samples": rows[-1]["samples"], "train_seconds_this_call": seconds, "ppo": ppo_overrides(args.ppo),
              "module": config.env.module, **evaluate_task(config.env, weights, args.episodes, seed=1000)}
     for p in THRESHOLDS:
         entry[f"samples_to_success_{p}"] = samples_to_success(rows, p)
     entry["final_training_success_rate"] = rows[-1].get("success_rate")
-    video = Path(args.runs_dir) / f"{run_name(task, action, args.seed)}.mp4"
+    if task == "go_to":
+        entry["heatmap"] = heatmap(config.env, NumpyPolicy(weights, max_batch=256), run_name(task, action, args.seed, args.label), args)
+    video = Path(args.runs_dir) / f"{run_name(task, action, args.seed, args.label)}.mp4"
     entry["video"] = render_task(config.env, weights, video, episodes=2, seed=1000, label=f"{task} - {action}")
     return entry
 
@@ -152,6 +184,8 @@ def main(argv=None) -> int:
     p.add_argument("--runner", default="ray")
     p.add_argument("--torch-threads", type=int, default=1)
     p.add_argument("--seeds", default="0", help="comma-separated training seeds (a run per seed)")
+    p.add_argument("--ppo", nargs="*", default=[], metavar="FIELD=VALUE", help="PPOConfig fields over task_ppo's (a lever)")
+    p.add_argument("--label", default="", help="names the lever's runs: <task>_<action>_<label>")
     p.add_argument("--episodes", type=int, default=32)
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--results", default=str(RESULTS / "npmp_tasks.json"))
@@ -162,8 +196,11 @@ def main(argv=None) -> int:
         for action in args.actions.split(","):
             for seed in ([0] if action == "zero" else [int(s) for s in args.seeds.split(",")]):
                 args.seed = seed
-                key = f"{task}/{action}" + (f"/s{seed}" if action != "zero" else "")
-                results[key] = measure(task, action, args)
+                key = f"{task}/{action}" + (f"_{args.label}" if args.label and action != "zero" else "") + (f"/s{seed}" if action != "zero" else "")
+                entry = measure(task, action, args)
+                # several invocations may run at once (a lever each): merge into what is on disk now
+                results = json.loads(out.read_text())["runs"] if out.is_file() else {}
+                results[key] = entry
                 atomic_write_json(out, {"bench": "npmp_tasks", "budget_samples": args.samples, "runs": results})
                 print(json.dumps({key: results[key]}), flush=True)
     plot(results, out.with_suffix(".png"))

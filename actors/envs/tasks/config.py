@@ -19,7 +19,10 @@ class TaskEnvConfig:
     action: str = field(default="latent", metadata={"choices": ACTION_SPACES, "help": "latent: the policy outputs z for the frozen decoder; joint: absolute exp-map PD targets, from scratch"})
     module: str | None = field(default="pretrained", metadata={"help": "motor module directory (config.json, decoder.npz, decoder.onnx) for --action latent; "
                                "`pretrained`: the module that ships in learner/pretrained/motor_module (its PROVENANCE.md says how it was made)"})
-    latent_scale: float = field(default=1.0, metadata={"help": "z = latent_scale x action: the policy's [-1, 1] action box maps to +-latent_scale prior standard deviations"})
+    latent_scale: float = field(default=1.5, metadata={"help": "z = latent_scale x action: the policy's [-1, 1] action box maps to +-latent_scale "
+                                   "prior standard deviations. 1.5 covers where the encoder puts z on the experts' data: 95 % of the "
+                                   "posterior means' components lie within +-1.24 (`latent_range.abs_p95` in the shipped module's config.json), "
+                                   "so a box of 1.0 cut off about a tenth of them"})
     control_hz: float = field(default=30.0, metadata={"help": "policy (and decoder) queries per second"})
     physics: PhysicsConfig = field(default_factory=PhysicsConfig, metadata={"help": "MuJoCo model settings"})
     horizon_s: float = field(default=10.0, metadata={"help": "episode length (seconds); the horizon truncates, a fall terminates"})
