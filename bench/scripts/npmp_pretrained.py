@@ -7,9 +7,9 @@ Steps, each skipped when its output is there (rerun the command after a kill to 
    (degrees per second, left; their mirrors turn right);
 2. the experts: `sfv experts walk run --samples 2000000`, then the turns at 1.5 M (one Ray job each,
    two trainings at once);
-3. the module: `sfv distill` of every clip and its mirror (`sfv experts`' mirrored experts), with
-   `walk_turn30_mirror` held out for one-shot imitation and the settings of DISTILL_FLAGS (the
-   lever table, bench/results/npmp/levers.json);
+3. the module: `sfv distill --spec npmp-pretrained`: every clip and its mirror (`sfv experts`'
+   mirrored experts), `walk_turn30_mirror` held out for one-shot imitation, beta 0.3 (the lever
+   table, bench/results/npmp/levers.json);
 4. `--ship`: its config.json, decoder.npz and decoder.onnx copied into learner/pretrained/motor_module
    with PROVENANCE.md (these commands, the experts' samples and NR, the module's figures).
 On this 2-core machine steps 2-3 take about 1 h 15 min (2026-12-06).
@@ -29,10 +29,7 @@ sys.path.insert(0, str(ROOT))
 
 TURNS = (30, 60)
 EXPERT_SAMPLES = {"walk": 2_000_000, "run": 2_000_000, **{f"walk_turn{r}": 1_500_000 for r in TURNS}}
-HOLD_OUT = ("walk_turn30_mirror",)
-STEPS_PER_CLIP = 12_000
-UPDATES = 6000
-DISTILL_FLAGS = ("--beta", "0.3")  # the levers' pick (bench/results/npmp/levers.json): prior falls .03, one-shot .89-1.00
+UPDATES = 6000  # the distill spec `npmp-pretrained` holds the clips, the held-out clip, steps per clip and beta
 SHIPPED = ("config.json", "decoder.npz", "decoder.onnx")
 
 
@@ -60,9 +57,8 @@ def make(runs: Path) -> Path:
     for samples, clips in by_budget.items():
         sfv("experts", *clips, "--out", str(experts), "--samples", str(samples), "--parallel", "2", "--quiet")
     if not (module / "decoder.npz").is_file():
-        sfv("distill", str(experts), "--out", str(module), "--dataset", str(runs / "dataset"), "--clips", *clip_names(),
-            "--hold-out", *HOLD_OUT, "--steps-per-clip", str(STEPS_PER_CLIP), "--updates", str(UPDATES),
-            "--torch-threads", "1", "--quiet", *DISTILL_FLAGS, *(["--resume"] if any(module.glob("checkpoint_*.pt")) else []))
+        sfv("distill", str(experts), "--out", str(module), "--dataset", str(runs / "dataset"), "--spec", "npmp-pretrained",
+            "--updates", str(UPDATES), "--torch-threads", "1", "--quiet", *(["--resume"] if any(module.glob("checkpoint_*.pt")) else []))
     return module
 
 
@@ -92,10 +88,10 @@ def ship(runs: Path, target: Path, figures: dict) -> None:
              *[f"sfv motion bend deepmimic:walk --yaw-rate {r} --seconds 10 --name walk_turn{r} --out RUNS/clips/walk_turn{r}.npz" for r in TURNS],
              "sfv experts walk run --out RUNS/experts --samples 2000000 --parallel 2",
              "sfv experts " + " ".join(f"RUNS/clips/walk_turn{r}.npz" for r in TURNS) + " --out RUNS/experts --samples 1500000 --parallel 2",
-             f"sfv distill RUNS/experts --out RUNS/module --clips {' '.join(clip_names())} --hold-out {' '.join(HOLD_OUT)} "
-             f"--steps-per-clip {STEPS_PER_CLIP} --updates {UPDATES} {' '.join(DISTILL_FLAGS)}",
+             f"sfv distill RUNS/experts --out RUNS/module --spec npmp-pretrained --updates {UPDATES}   "
+             "# clips " + " ".join(clip_names()) + ", walk_turn30_mirror held out, 12,000 steps per clip, beta 0.3",
              "```", "",
-             "Experts (strict evaluation NR at the end of training; `<clip>_mirror` is each expert mirrored, not trained):", "",
+             "Experts (NR of the last in-training evaluation, 8 strict episodes; `<clip>_mirror` is each expert mirrored, not trained):", "",
              "| expert | samples | NR |", "|---|---:|---:|", *expert_rows(runs / "experts"), "",
              f"Module: trained on {', '.join(record['clips'])}; held out {', '.join(record['held_out'])}.",
              f"Settings: {json.dumps(record['module'], sort_keys=True)}", "",

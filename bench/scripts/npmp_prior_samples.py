@@ -10,7 +10,8 @@ streams with the same per-step marginal N(0, sigma^2):
 - `prior`: the module's AR(1) chain (alpha from its config), temporally correlated;
 - `white`: independent draws every step (alpha = 0), the same marginal without the correlation;
 - `zero`: z = 0 throughout, the prior's mean.
-Per stream: fall rate, episode seconds, and the pose log-density of every pose held under the
+Per stream: fall rate, episode seconds, the motion distance to the nearest mocap window
+(`services/tasks/motion_likeness.py`: 0 for the clips, .37 standing still) and the pose log-density of every pose held under the
 expert clips' pose prior (`services/tasks/pose_prior.py`, higher is more human-like; the clips'
 own frames score `pose_log_density_experts`).
 """
@@ -46,7 +47,8 @@ class LatentStream:
         return action
 
 
-def run_stream(module: str, name: str, alpha: float, sigma: float, latent_dim: int, episodes: int, seed: int, prior) -> dict:
+def run_stream(module: str, name: str, alpha: float, sigma: float, latent_dim: int, episodes: int, seed: int, prior,
+               library=None) -> dict:
     from actors.envs.tasks.config import TaskEnvConfig
     from actors.envs.tasks.vector_task_env import VectorTaskEnv
     from services.tasks.evaluation import run_episodes
@@ -58,7 +60,8 @@ def run_stream(module: str, name: str, alpha: float, sigma: float, latent_dim: i
     poses = np.concatenate(sequences)
     return {"alpha": alpha if name != "zero" else None, "fall_rate": float(per_episode["fell"].mean()),
             "episode_seconds": float(per_episode["lengths"].mean() / config.control_hz),
-            "pose_log_density": float(prior.log_density(poses).mean()) if len(poses) else None}
+            "pose_log_density": float(prior.log_density(poses).mean()) if len(poses) else None,
+            **({"motion_distance": library.score(sequences)} if library is not None else {})}
 
 
 def main(argv=None) -> int:
@@ -74,22 +77,30 @@ def main(argv=None) -> int:
     from learner.atomic_io import atomic_write_json
     from services.tasks.pose_prior import PosePrior, clip_poses
 
-    from services.motor.training import load_module
+    import json
 
-    settings = load_module(Path(args.module)).config
+    from learner.motor_config import MotorModuleConfig
+    from learner.motor_decoder import module_path
+
+    # the module's settings from its config.json (a shipped module has no module.pt)
+    settings = MotorModuleConfig.from_dict(json.loads((module_path(args.module) / "config.json").read_text())["module"])
     alpha, sigma, dim = float(settings.alpha), float(settings.prior_std), int(settings.latent_dim)
-    prior = PosePrior.fit()
+    from services.tasks.motion_likeness import MotionLibrary
+
+    prior, library = PosePrior.fit(), MotionLibrary.fit()
     started = time.perf_counter()
     with threadpool_limits(1, user_api="blas"):
-        streams = {name: run_stream(args.module, name, a, sigma, dim, args.episodes, args.seed, prior)
+        streams = {name: run_stream(args.module, name, a, sigma, dim, args.episodes, args.seed, prior, library)
                    for name, a in (("prior", alpha), ("white", 0.0), ("zero", 0.0))}
     experts = np.concatenate([prior.log_density(clip_poses(clip)) for clip in prior.clips])
     record = {"what": "the frozen decoder driven by latent streams alone, from random walk frames, 10 s episodes",
               "module": str(args.module), "episodes": args.episodes, "latent_dim": dim, "prior_std": sigma,
-              "streams": streams, "pose_log_density_experts": float(experts.mean()), "wall_s": time.perf_counter() - started}
+              "streams": streams, "pose_log_density_experts": float(experts.mean()),
+              "motion_distance_lines": library.reference_distances(), "wall_s": time.perf_counter() - started}
     atomic_write_json(args.result, record, sort_keys=False)
     for name, row in streams.items():
-        print(f"{name:6s} falls {row['fall_rate']:.2f}  seconds {row['episode_seconds']:.1f}  pose log-density {row['pose_log_density']:.1f}")
+        print(f"{name:6s} falls {row['fall_rate']:.2f}  seconds {row['episode_seconds']:.1f}  pose log-density {row['pose_log_density']:.1f}"
+              f"  motion distance {row['motion_distance']:.2f}")
     return 0
 
 

@@ -63,7 +63,8 @@ def train(task: str, action: str, args, run_dir: Path) -> float:
     ppo = dataclasses.replace(task_ppo(action), **ppo_overrides(args.ppo))
     config = TaskConfig(out=str(run_dir), workers=args.workers, envs_per_worker=args.envs_per_worker, samples=args.samples,
                         seed=args.seed, runner=args.runner, torch_threads=args.torch_threads,
-                        env=TaskEnvConfig(task=task, action=action, module=args.module if action == "latent" else None),
+                        env=TaskEnvConfig(task=task, action=action, module=args.module if action == "latent" else None,
+                                          **(ppo_overrides(args.env) if action == "latent" else {})),
                         ppo=ppo)
     started = time.perf_counter()
     with TaskTrainer(config, resume=bool(checkpoint_files(run_dir)), progress=not args.quiet) as trainer:
@@ -125,7 +126,7 @@ def measure(task: str, action: str, args) -> dict:
     seconds = train(task, action, args, run_dir)
     config, weights = load_task_run(run_dir)
     rows = read_metrics(run_dir)
-    entry = {"run": str(run_dir), "samples": rows[-1]["samples"], "train_seconds_this_call": seconds, "ppo": ppo_overrides(args.ppo),
+    entry = {"run": str(run_dir), "samples": rows[-1]["samples"], "train_seconds_this_call": seconds, "ppo": ppo_overrides(args.ppo), "env": ppo_overrides(args.env) if action == "latent" else {},
              "module": config.env.module, **evaluate_task(config.env, weights, args.episodes, seed=1000)}
     for p in THRESHOLDS:
         entry[f"samples_to_success_{p}"] = samples_to_success(rows, p)
@@ -185,6 +186,7 @@ def main(argv=None) -> int:
     p.add_argument("--torch-threads", type=int, default=1)
     p.add_argument("--seeds", default="0", help="comma-separated training seeds (a run per seed)")
     p.add_argument("--ppo", nargs="*", default=[], metavar="FIELD=VALUE", help="PPOConfig fields over task_ppo's (a lever)")
+    p.add_argument("--env", nargs="*", default=[], metavar="FIELD=VALUE", help="TaskEnvConfig fields of the latent runs (a lever: latent_directions=8)")
     p.add_argument("--label", default="", help="names the lever's runs: <task>_<action>_<label>")
     p.add_argument("--episodes", type=int, default=32)
     p.add_argument("--quiet", action="store_true")

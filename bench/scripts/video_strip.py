@@ -24,7 +24,7 @@ def frame_strip(video: Path, seconds: list[float], height: int) -> "np.ndarray":
         if not ok:
             raise SystemExit(f"video_strip: {video}: no frame at {t} s")
         frame = cv2.resize(frame, (int(frame.shape[1] * height / frame.shape[0]), height), interpolation=cv2.INTER_AREA)
-        cv2.putText(frame, f"{t:g} s", (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 2, cv2.LINE_AA)
+        cv2.putText(frame, f"{t:g} s", (8, height - 10), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (255, 255, 255), 2, cv2.LINE_AA)
         frames.append(frame)
     capture.release()
     return np.concatenate(frames, axis=1)

@@ -67,4 +67,10 @@ for task, samples in NPMP_TASK_SAMPLES.items():
 NPMP_CLIPS = ("walk", "run", "cartwheel", "crawl", "getup_facedown", "walk_left", "kick")  # walk_left: the turning walk
 register(RunSpec("npmp-module", "distill", "the motor module of the one-shot table: 7 clips and their mirrors, kick held out",
                  {"steps_per_clip": 12_000, "clips": (*NPMP_CLIPS, *(f"{clip}_mirror" for clip in NPMP_CLIPS)),
-                  "hold_out": ("kick", "kick_mirror")}, "bench/results/npmp/one_shot.json"))
+                  "hold_out": ("kick", "kick_mirror"), "beta": 0.1}, "bench/results/npmp/one_shot.json"))
+# The shipped module (`--module pretrained`; bench/scripts/npmp_pretrained.py makes it from nothing):
+# locomotion with turns, the experts' directory holding walk_turn30/60 trained from `sfv motion bend` files.
+PRETRAINED_CLIPS = ("walk", "run", "walk_turn30", "walk_turn60")
+register(RunSpec("npmp-pretrained", "distill", "the shipped motor module: walk, run, 30 and 60 deg/s turning walks and their mirrors, "
+                 "walk_turn30_mirror held out", {"steps_per_clip": 12_000, "clips": (*PRETRAINED_CLIPS, *(f"{c}_mirror" for c in PRETRAINED_CLIPS)),
+                                                  "hold_out": ("walk_turn30_mirror",), "beta": 0.3}, "bench/results/npmp/levers.json"))

@@ -39,12 +39,14 @@ def _add_target(renderer: OffscreenRenderer, env: VectorTaskEnv) -> None:
         renderer.add_arrow(start, end, 0.04, HEADING_RGBA)
 
 
-def render_task(env_config, weights: dict, out: str | Path, episodes: int = 2, seed: int = 0, label: str = "",
-                width: int = 640, height: int = 360) -> dict:
+def render_task(env_config, weights: dict | None, out: str | Path, episodes: int = 2, seed: int = 0, label: str = "",
+                width: int = 640, height: int = 360, policy=None) -> dict:
+    """`episodes` deterministic episodes of `weights` (or of `policy`, anything with `mean(obs)`:
+    a latent stream of the prior-sample check) into the MP4 `out`."""
     from threadpoolctl import threadpool_limits
 
     env = VectorTaskEnv(env_config, 1, seed=seed)
-    policy = NumpyPolicy(weights, max_batch=1)
+    policy = policy or NumpyPolicy(weights, max_batch=1)
     camera = FollowCamera()
     frame = np.zeros((height, width, 3), np.uint8)
     hz = env_config.control_hz

@@ -61,3 +61,28 @@ def test_a_missing_shipped_module_is_one_clear_error(monkeypatch, tmp_path):
     with pytest.raises(SfvError, match="--module pretrained: the shipped module is missing"):
         module_path("pretrained")
     assert module_path(tmp_path) == tmp_path
+
+
+def test_the_npmp_pretrained_spec_describes_the_shipped_module():
+    from services.specs import specs_for
+
+    spec = specs_for("distill")["npmp-pretrained"].settings
+    record = json.loads((PRETRAINED_DIR / "config.json").read_text())
+    assert record["module"]["beta"] == spec["beta"]
+    assert sorted(record["clips"]) == sorted(set(spec["clips"]) - set(spec["hold_out"]))
+    assert record["held_out"] == list(spec["hold_out"])
+
+
+def test_principal_latent_actions_move_z_around_the_posterior_centre():
+    from actors.envs.tasks.action_spaces import LatentActions
+
+    full = LatentActions("pretrained", latent_scale=1.5)
+    eight = LatentActions("pretrained", latent_scale=1.5, directions=8)
+    assert (full.action_dim, eight.action_dim) == (60, 8)
+    record = json.loads((PRETRAINED_DIR / "config.json").read_text())["latent_range"]["principal"]
+    np.testing.assert_allclose(eight.latents(np.zeros((1, 8))), [record["mean"]], atol=1e-9)
+    step = eight.latents(np.eye(8)[:1]) - eight.latents(np.zeros((1, 8)))  # +1 on the first direction
+    assert np.linalg.norm(step) == pytest.approx(1.5 * record["std"][0], rel=1e-4)
+    assert record["cumulative_variance"][7] > 0.8  # 8 directions hold most of where the experts' z lie
+    with pytest.raises(SfvError, match="records 16"):
+        LatentActions("pretrained", directions=17)

@@ -11,7 +11,7 @@ from services.cli import build_parser, main
 from services.commands import distill, task, train
 from services.specs import RUN_SPECS, RunSpec, specs_for
 from services.specs.record import RECORD_FILE
-from services.training.flags import resolve
+from services.training.flags import leaves, resolve
 from tests.conftest import REPO
 
 
@@ -29,8 +29,16 @@ def _resolve(spec: RunSpec, module_dir):
     if spec.command == "task":
         base = task._default_config(settings["env.task"], settings["env.action"])
         return resolve(settings, flags, base, schema=task.task_schema())
+    # a distill spec's settings go to the dataset's RecordConfig or the MotorModuleConfig, as `sfv distill` applies them
     config_settings = {k: v for k, v in settings.items() if k not in distill.SPEC_ARGUMENTS}
-    return resolve(config_settings, {k: flags[k] for k in config_settings}, schema=distill.record_schema())
+    resolved = []
+    for schema in (distill.record_schema(), distill.module_schema()):
+        paths = {leaf.path for leaf in leaves(schema.root)}
+        part = {k: v for k, v in config_settings.items() if k in paths}
+        resolved.append(resolve(part, {k: flags[k] for k in part}, schema=schema))
+        config_settings = {k: v for k, v in config_settings.items() if k not in paths}
+    assert not config_settings, f"spec {spec.name}: settings no config takes: {sorted(config_settings)}"
+    return resolved[0]
 
 
 def test_every_spec_resolves_at_this_commit_and_names_an_existing_results_file(tmp_path):

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from actors.character.actions import ActionMapper
-from actors.envs.tasks.motor_module import decode, load_decoder
+from actors.envs.tasks.motor_module import decode, load_decoder, principal_basis
 
 
 class JointActions:
@@ -30,16 +30,28 @@ class JointActions:
 
 
 class LatentActions:
+    """z from the policy's [-1, 1] actions: `latent_scale` x action in the full latent space, or,
+    with `directions` K > 0, the module's posterior centre plus action_k x latent_scale x std_k
+    along its K principal directions (`principal_directions` in its config.json): K numbers to
+    explore instead of 60, centred where the experts' z lie rather than at z = 0."""
+
     name = "latent"
 
-    def __init__(self, module_dir: str, latent_scale: float = 1.0):
+    def __init__(self, module_dir: str, latent_scale: float = 1.0, directions: int = 0):
         self.decoder, size = load_decoder(module_dir)
-        self.action_dim = size
         self.latent_scale = float(latent_scale)
         self._limits = ActionMapper("exp_map", None)  # only its per-axis joint limits
+        self.centre, self.basis = None, None
+        if directions > 0:
+            self.centre, self.basis = principal_basis(module_dir, directions, size)
+            self.basis = self.basis * self.latent_scale  # (K, L): rows already scaled by their std
+        self.action_dim = directions if directions > 0 else size
 
     def latents(self, actions: np.ndarray) -> np.ndarray:
-        return self.latent_scale * np.clip(actions, -1.0, 1.0)
+        clipped = np.clip(actions, -1.0, 1.0)
+        if self.basis is None:
+            return self.latent_scale * clipped
+        return self.centre + clipped @ self.basis
 
     def targets(self, actions: np.ndarray, proprio: np.ndarray, out: np.ndarray) -> np.ndarray:
         out[:] = decode(self.decoder, proprio, self.latents(actions))
@@ -51,5 +63,5 @@ class LatentActions:
 def make_action_space(config):
     """The action space a TaskEnvConfig asks for."""
     if config.action == "latent":
-        return LatentActions(config.module, config.latent_scale)
+        return LatentActions(config.module, config.latent_scale, config.latent_directions)
     return JointActions()

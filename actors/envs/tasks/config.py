@@ -23,6 +23,8 @@ class TaskEnvConfig:
                                    "prior standard deviations. 1.5 covers where the encoder puts z on the experts' data: 95 % of the "
                                    "posterior means' components lie within +-1.24 (`latent_range.abs_p95` in the shipped module's config.json), "
                                    "so a box of 1.0 cut off about a tenth of them"})
+    latent_directions: int = field(default=0, metadata={"help": "0: the policy outputs the whole latent; K > 0: K numbers that move z along "
+                                   "the module's K principal directions around its posterior centre (at most 16; each +-latent_scale stds)"})
     control_hz: float = field(default=30.0, metadata={"help": "policy (and decoder) queries per second"})
     physics: PhysicsConfig = field(default_factory=PhysicsConfig, metadata={"help": "MuJoCo model settings"})
     horizon_s: float = field(default=10.0, metadata={"help": "episode length (seconds); the horizon truncates, a fall terminates"})
@@ -65,6 +67,8 @@ class TaskEnvConfig:
             out.append(f"--action must be one of {', '.join(ACTION_SPACES)}, got {self.action!r}")
         if self.action == "latent" and not self.module:
             out.append("--action latent needs --module MODULE_DIR (a distilled motor module)")
+        if not 0 <= self.latent_directions <= 16:
+            out.append(f"--env.latent-directions must be 0-16, got {self.latent_directions}")
         for name in ("latent_scale", "control_hz", "horizon_s", "success_radius"):
             if not getattr(self, name) > 0:
                 out.append(f"--{name.replace('_', '-')} must be positive, got {getattr(self, name)}")

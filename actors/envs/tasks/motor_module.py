@@ -52,3 +52,22 @@ def latent_size(decoder, module_dir: Path) -> int:
 def decode(decoder, proprio: np.ndarray, z: np.ndarray) -> np.ndarray:
     """(B, 28) float64 PD targets for a batch."""
     return np.asarray(decoder(np.ascontiguousarray(proprio, np.float32), np.ascontiguousarray(z, np.float32)), np.float64)
+
+
+def principal_basis(module_dir: str | Path, directions: int, latent_dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """(centre (L,), rows (K, L) = the K principal directions times their std) of the encoder's
+    posterior means, from the module's config.json (`latent_range.principal`, written by `sfv distill`)."""
+    from learner.motor_decoder import module_path
+
+    path = module_path(module_dir) / "config.json"
+    principal = json.loads(path.read_text()).get("latent_range", {}).get("principal")
+    if not principal:
+        raise SfvError(f"{path}: no principal latent directions (a module distilled before they were recorded); "
+                       "use --env.latent-directions 0")
+    if directions > len(principal["directions"]):
+        raise SfvError(f"--env.latent-directions {directions}: {path} records {len(principal['directions'])}")
+    centre = np.asarray(principal["mean"], np.float64)
+    rows = np.asarray(principal["directions"][:directions], np.float64) * np.asarray(principal["std"][:directions])[:, None]
+    if centre.shape != (latent_dim,) or rows.shape[1] != latent_dim:
+        raise SfvError(f"{path}: principal directions of size {centre.shape[0]}, the decoder's latent is {latent_dim}")
+    return centre, rows
