@@ -151,7 +151,8 @@ def plot(results: dict, out: Path) -> None:
 
     from services.training.run_dir import read_metrics
 
-    results = {key: entry for key, entry in results.items() if entry.get("run")}  # the chance line has no curve
+    # the chance line has no curve; a run directory gone (another machine) or a copy at an earlier budget (key@2M) is skipped
+    results = {key: entry for key, entry in results.items() if entry.get("run") and Path(entry["run"]).is_dir() and "@" not in key}
     tasks = sorted({key.split("/")[0] for key in results})
     fig, axes = plt.subplots(2, len(tasks), figsize=(6 * len(tasks), 7), squeeze=False)
     for column, task in enumerate(tasks):
@@ -201,9 +202,11 @@ def main(argv=None) -> int:
                 key = f"{task}/{action}" + (f"_{args.label}" if args.label and action != "zero" else "") + (f"/s{seed}" if action != "zero" else "")
                 entry = measure(task, action, args)
                 # several invocations may run at once (a lever each): merge into what is on disk now
-                results = json.loads(out.read_text())["runs"] if out.is_file() else {}
-                results[key] = entry
-                atomic_write_json(out, {"bench": "npmp_tasks", "budget_samples": args.samples, "runs": results})
+                record = json.loads(out.read_text()) if out.is_file() else {"bench": "npmp_tasks"}
+                record.setdefault("runs", {})[key] = entry  # the file's other keys (earlier tables) are kept
+                record["budget_samples"] = args.samples
+                results = record["runs"]
+                atomic_write_json(out, record)
                 print(json.dumps({key: results[key]}), flush=True)
     plot(results, out.with_suffix(".png"))
     return 0

@@ -45,7 +45,7 @@ class LatentActions:
         if directions > 0:
             self.centre, self.basis = principal_basis(module_dir, directions, size)
             self.basis = self.basis * self.latent_scale  # (K, L): rows already scaled by their std
-        self.action_dim = directions if directions > 0 else size
+        self.action_dim = len(self.basis) if self.basis is not None else size
 
     def latents(self, actions: np.ndarray) -> np.ndarray:
         clipped = np.clip(actions, -1.0, 1.0)

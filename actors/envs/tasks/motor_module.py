@@ -56,7 +56,8 @@ def decode(decoder, proprio: np.ndarray, z: np.ndarray) -> np.ndarray:
 
 def principal_basis(module_dir: str | Path, directions: int, latent_dim: int) -> tuple[np.ndarray, np.ndarray]:
     """(centre (L,), rows (K, L) = the K principal directions times their std) of the encoder's
-    posterior means, from the module's config.json (`latent_range.principal`, written by `sfv distill`)."""
+    posterior means, from the module's config.json (`latent_range.principal`, written by `sfv distill`);
+    K is `directions` or the number recorded, whichever is smaller."""
     from learner.motor_decoder import module_path
 
     path = module_path(module_dir) / "config.json"
@@ -64,8 +65,7 @@ def principal_basis(module_dir: str | Path, directions: int, latent_dim: int) ->
     if not principal:
         raise SfvError(f"{path}: no principal latent directions (a module distilled before they were recorded); "
                        "use --env.latent-directions 0")
-    if directions > len(principal["directions"]):
-        raise SfvError(f"--env.latent-directions {directions}: {path} records {len(principal['directions'])}")
+    directions = min(directions, len(principal["directions"]))  # a small latent has fewer (min(16, latent size))
     centre = np.asarray(principal["mean"], np.float64)
     rows = np.asarray(principal["directions"][:directions], np.float64) * np.asarray(principal["std"][:directions])[:, None]
     if centre.shape != (latent_dim,) or rows.shape[1] != latent_dim:

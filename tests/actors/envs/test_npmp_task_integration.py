@@ -44,6 +44,7 @@ def test_two_tiny_experts_distilled_then_one_task_iteration(tmp_path, capsys):
     assert len(rows) == 1 and np.isfinite(rows[0]["losses/policy_loss"])
     config = json.loads((run / "config.json").read_text())
     assert config["env"]["action"] == "latent" and config["env"]["module"] == str(module)
+    assert len(json.loads((module / "config.json").read_text())["latent_range"]["principal"]["directions"]) == 4  # min(16, latent 4)
     assert main(["task", "eval", str(run), "--episodes", "2"]) == 0
     figures = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert 0.0 <= figures["success_rate"] <= 1.0 and figures["pose_log_density"] is not None
@@ -65,7 +66,7 @@ def test_latent_actions_drive_the_character_with_the_decoder(tmp_path):
                "layer1.weight": rng.normal(0, 0.5, (8, 28)).astype(np.float32), "layer1.bias": np.zeros(28, np.float32)}
     save_decoder_npz(weights, tmp_path / "decoder.npz")
     (tmp_path / "config.json").write_text(json.dumps({"latent_dim": 3}))
-    env = VectorTaskEnv(TaskEnvConfig(action="latent", module=str(tmp_path), latent_scale=2.0), 3, seed=0)
+    env = VectorTaskEnv(TaskEnvConfig(action="latent", module=str(tmp_path), latent_scale=2.0, latent_directions=0), 3, seed=0)
     assert env.action_dim == 3
     obs = env.reset()
     actions = rng.uniform(-1.5, 1.5, (3, 3)).astype(np.float32)
