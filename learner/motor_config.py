@@ -24,10 +24,8 @@ class MotorModuleConfig:
     latent_dim: int = field(default=60, metadata={"help": "size of the latent motor intention z (Merel et al. 2019: 60)"})
     alpha: float = field(default=0.95, metadata={"help": "AR(1) prior p(z_t|z_t-1) = N(alpha z_t-1, (1 - alpha^2) sigma^2) (Merel et al. 2019: 0.95)"})
     prior_std: float = field(default=1.0, metadata={"help": "sigma: the prior's stationary std of each latent component"})
-    beta: float = field(default=0.3, metadata={"help": "weight of KL(q || p) against the action log-likelihood (004 eq. 4; Merel et al. 2019: 0.1). "
-                                                "0.3: on the shipped module's data its own prior's 10-s samples fall in 3 % of episodes "
-                                                "(0.1: 41 %, 1.0: 0 %) while one-shot imitation keeps .89-1.00 of each expert (1.0: .72-.87); "
-                                                "bench/results/npmp/levers.json"})
+    beta: float = field(default=0.3, metadata={"help": "weight of KL(q || p) against the action log-likelihood (004 eq. 4; Merel et al. 2019: "
+                                                "0.1; 0.3 keeps the prior's samples on their feet: the lever table in docs/motor.md)"})
     encoder_hidden: tuple[int, ...] = field(default=(512, 512), metadata={"help": "encoder MLP hidden sizes, ELU (Merel et al.: wider; sized for 2 CPU cores)"})
     decoder_hidden: tuple[int, ...] = field(default=(512, 512), metadata={"help": "decoder MLP hidden sizes, ELU (smooth in z, which a task policy explores)"})
     init_action_std: float = field(default=0.5, metadata={"help": "initial std of the decoder's Gaussian, in units of each target's dataset std (learned, state-independent)"})

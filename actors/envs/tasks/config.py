@@ -19,13 +19,10 @@ class TaskEnvConfig:
     action: str = field(default="latent", metadata={"choices": ACTION_SPACES, "help": "latent: the policy outputs z for the frozen decoder; joint: absolute exp-map PD targets, from scratch"})
     module: str | None = field(default="pretrained", metadata={"help": "motor module directory (config.json, decoder.npz, decoder.onnx) for --action latent; "
                                "`pretrained`: the module that ships in learner/pretrained/motor_module (its PROVENANCE.md says how it was made)"})
-    latent_scale: float = field(default=1.5, metadata={"help": "z = latent_scale x action: the policy's [-1, 1] action box maps to +-latent_scale "
-                                   "prior standard deviations. 1.5 covers where the encoder puts z on the experts' data: 95 % of the "
-                                   "posterior means' components lie within +-1.24 (`latent_range.abs_p95` in the shipped module's config.json), "
-                                   "so a box of 1.0 cut off about a tenth of them"})
+    latent_scale: float = field(default=1.5, metadata={"help": "z = latent_scale x action: the policy's [-1, 1] box maps to +-latent_scale stds "
+                                   "(1.5 covers 95 % of where the encoder puts z: docs/motor.md)"})
     latent_directions: int = field(default=8, metadata={"help": "K > 0: the policy outputs K numbers that move z along the module's K principal "
-                                   "directions around its posterior centre (at most 16; each +-latent_scale stds); 0: the whole latent around z = 0. "
-                                   "go-to, shipped module, 2 M samples: success .25 with 8, .00 with the whole latent (docs/motor.md)"})
+                                   "directions around its posterior centre (at most 16); 0: the whole latent around z = 0 (measured: docs/motor.md)"})
     control_hz: float = field(default=30.0, metadata={"help": "policy (and decoder) queries per second"})
     physics: PhysicsConfig = field(default_factory=PhysicsConfig, metadata={"help": "MuJoCo model settings"})
     horizon_s: float = field(default=10.0, metadata={"help": "episode length (seconds); the horizon truncates, a fall terminates"})
