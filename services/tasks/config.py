@@ -95,6 +95,7 @@ class TaskConfig:
     def from_dict(cls, d: dict) -> "TaskConfig":
         d = dict(d)
         env = dict(d.pop("env", {}))
+        env.setdefault("latent_directions", 0)  # a run made before the field existed drove the whole latent
         physics = PhysicsConfig(**env.pop("physics", {}))
         ppo = PPOConfig.from_dict(d.pop("ppo", {}))
         try:
