@@ -37,8 +37,8 @@ def samples_to_success(rows: list[dict], threshold: float) -> int | None:
     return None
 
 
-def ppo_overrides(pairs: list[str]) -> dict:
-    """`--ppo policy_lr=3e-4 update_epochs=4` as PPOConfig field values (numbers parsed as JSON)."""
+def field_values(pairs: list[str]) -> dict:
+    """`--ppo policy_lr=3e-4 update_epochs=4` (or `--env latent_directions=8`) as config field values (numbers parsed as JSON)."""
     out = {}
     for pair in pairs:
         key, _, value = pair.partition("=")
@@ -60,11 +60,11 @@ def train(task: str, action: str, args, run_dir: Path) -> float:
         return 0.0
     import dataclasses
 
-    ppo = dataclasses.replace(task_ppo(action), **ppo_overrides(args.ppo))
+    ppo = dataclasses.replace(task_ppo(action), **field_values(args.ppo))
     config = TaskConfig(out=str(run_dir), workers=args.workers, envs_per_worker=args.envs_per_worker, samples=args.samples,
                         seed=args.seed, runner=args.runner, torch_threads=args.torch_threads,
                         env=TaskEnvConfig(task=task, action=action, module=args.module if action == "latent" else None,
-                                          **(ppo_overrides(args.env) if action == "latent" else {})),
+                                          **(field_values(args.env) if action == "latent" else {})),
                         ppo=ppo)
     started = time.perf_counter()
     with TaskTrainer(config, resume=bool(checkpoint_files(run_dir)), progress=not args.quiet) as trainer:
@@ -126,7 +126,7 @@ def measure(task: str, action: str, args) -> dict:
     seconds = train(task, action, args, run_dir)
     config, weights = load_task_run(run_dir)
     rows = read_metrics(run_dir)
-    entry = {"run": str(run_dir), "samples": rows[-1]["samples"], "train_seconds_this_call": seconds, "ppo": ppo_overrides(args.ppo), "env": ppo_overrides(args.env) if action == "latent" else {},
+    entry = {"run": str(run_dir), "samples": rows[-1]["samples"], "train_seconds_this_call": seconds, "ppo": field_values(args.ppo), "env": field_values(args.env) if action == "latent" else {},
              "module": config.env.module, **evaluate_task(config.env, weights, args.episodes, seed=1000)}
     for p in THRESHOLDS:
         entry[f"samples_to_success_{p}"] = samples_to_success(rows, p)

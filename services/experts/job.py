@@ -56,6 +56,10 @@ POLL_S = 2.0
 MOTION_FILE_SUFFIXES = (".npz", ".json", ".bvh")
 
 
+def is_motion_file(name: str) -> bool:
+    return Path(name).suffix.lower() in MOTION_FILE_SUFFIXES
+
+
 def clip_motion_files(names: list[str]) -> dict[str, str]:
     """{clip: path} for the names that are motion files (`sfv motion bend ... --out walk_turn30.npz`):
     such a clip is named by the file's stem and trains `--motion PATH` (its mirror, `<stem>_mirror`,
@@ -63,7 +67,7 @@ def clip_motion_files(names: list[str]) -> dict[str, str]:
     files: dict[str, str] = {}
     for name in names:
         path = Path(name)
-        if path.suffix.lower() in MOTION_FILE_SUFFIXES:
+        if is_motion_file(name):
             if not path.is_file():
                 raise SfvError(f"sfv experts: {name}: no such motion file")
             stem = path.stem
@@ -85,7 +89,7 @@ def expand_clips(names: list[str], character: str = HUMANOID, known: tuple[str, 
     clips: list[str] = []
     for name in names:
         every = [c for clip in DEEPMIMIC_CLIPS for c in ((clip, clip + MIRROR_SUFFIX) if mirrors else (clip,))]
-        expanded = every if name == ALL else [Path(name).stem if Path(name).suffix.lower() in MOTION_FILE_SUFFIXES else name]
+        expanded = every if name == ALL else [Path(name).stem if is_motion_file(name) else name]
         for clip in expanded:
             if clip.removesuffix(MIRROR_SUFFIX) not in allowed:
                 raise SfvError(f"sfv experts: {clip!r} is not a DeepMimic clip, a motion file or <clip>{MIRROR_SUFFIX} "

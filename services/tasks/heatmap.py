@@ -34,9 +34,7 @@ def place_targets(env, offsets: np.ndarray) -> np.ndarray:
         dx, dy = offsets[i % len(offsets)]
         c, s = np.cos(yaw[i]), np.sin(yaw[i])
         world = np.array([c * dx - s * dy, s * dx + c * dy])
-        task.target[i] = root_xy[i] + world
-        task.speed[i] = float(np.mean(env.config.speed_range))
-        task.heading[i] = float(np.arctan2(world[1], world[0]))
+        task.place(i, root_xy[i] + world, float(np.mean(env.config.speed_range)), float(np.arctan2(world[1], world[0])))
     return env.refresh_observations()
 
 

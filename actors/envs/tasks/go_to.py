@@ -40,6 +40,12 @@ class GoToTask:
         self.speed[i] = rng.uniform(*c.speed_range)
         self.heading[i] = np.arctan2(offset[1], offset[0]) + rng.uniform(-c.heading_spread, c.heading_spread)
 
+    def place(self, i: int, target_xy: np.ndarray, speed: float, heading: float) -> None:
+        """Set env i's current target, requested speed and heading (the heatmap's fixed placements)."""
+        self.target[i] = target_xy
+        self.speed[i] = speed
+        self.heading[i] = heading
+
     def capture(self, i: int, data) -> None:
         """Nothing of the scene to read: the target lives here."""
 
