@@ -17,6 +17,15 @@ def linear_anneal(start: float, final: float | None, samples: int, anneal_sample
     return float(start + progress * (final - start))
 
 
+def decaying_help(final: float, samples: int, total: int, window: tuple[float, float] = (0.25, 0.75)) -> float:
+    """A help's strength (the residual root wrench's, `TrainConfig.residual_force_final`): 1 until
+    ``window[0]`` of the run's ``total`` samples, linear to ``final`` by ``window[1]``, held after.
+    Unlike the schedules above it follows the run's budget: the last part of every run must train
+    at the final strength."""
+    first, last = int(window[0] * total), int(window[1] * total)
+    return linear_anneal(1.0, float(final), samples - first, last - first)
+
+
 # rsl_rl's bounds are 1e-5 .. 1e-2 for 256-unit nets; the 1024-512 nets here move far more per
 # step at the same rate, so both bounds sit an order of magnitude lower.
 ADAPTIVE_LR_MIN = 1e-6

@@ -53,6 +53,12 @@ class CoreParts:
     def reference_pose_obs(self) -> ReferencePoseObservation:
         return self.core.reference_pose_obs
 
+    def set_residual_strength(self, strength: float | None) -> None:
+        """The residual root wrench's strength from now on (a fraction of its full size; None:
+        unchanged); nothing without one."""
+        if strength is not None and self.core.residual is not None:
+            self.core.residual.set_strength(strength)
+
 
 class ImitationCore:
     def __init__(self, envs, humanoid, track, config, feature_dim: int, obs_dim: int, scene_dim: int, scene_reward, scene_limbs,
@@ -71,7 +77,8 @@ class ImitationCore:
         self.residual = None
         if config.residual_force > 0:
             self.residual = ResidualForce(config.residual_force, config.residual_force_weight,
-                                          float(first.model.body_subtreemass[humanoid.body_ids[0]]), int(humanoid.body_ids[0]), num_envs)
+                                          float(first.model.body_subtreemass[humanoid.body_ids[0]]), int(humanoid.body_ids[0]), num_envs,
+                                          config.residual_force_scale)
         self.joint_action_dim = self.actions.action_dim
         self.action_dim = self.joint_action_dim + (WRENCH_DIM if self.residual is not None else 0)
         self.mode = mode_class(config.mode)(config, track, humanoid, num_envs)

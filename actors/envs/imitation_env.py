@@ -69,6 +69,7 @@ class EnvConfig:
     residual_action_scale: float | None = field(default=0.5, metadata={"help": "PD target = reference target of the step acted towards + this (rad) x action (dynamic-camera paper eq. 1); None: absolute targets. Walk, ASI, exp_map, eval NR at 1 M samples: .91 with no falls residual, .23 (all episodes falling) absolute"})
     residual_force: float = field(default=0.0, metadata={"help": "a residual wrench on the root the policy may apply, its largest force per axis as a fraction of body weight (torque: that force x 0.5 m), six more action numbers; the help costs up to residual_force_weight of each step's reward (residual force control, SimPoE; actors/envs/residual_force.py). 0: none, the body alone"})
     residual_force_weight: float = field(default=0.1, metadata={"help": "the share of each step's reward the residual wrench can cost: reward x (1 - w + w exp(-2 |a|^2)) over its six normalised numbers"})
+    residual_force_scale: float = field(default=1.0, metadata={"help": "the residual wrench's strength as a fraction of residual_force, the action unchanged: a run that lets the help decay (--residual-force-final) records the strength each checkpoint was trained at, and evaluation, render and export play it there"})
     residual_scale_per_joint: bool = field(default=True, metadata={"help": "scale each joint's residual range by its character's factor (humanoid3d: 1; g1: effort / kp / 0.5); false: residual_action_scale rad on every joint (measured: docs/robots.md)"})
     sync_root_per_cycle: bool = field(default=True, metadata={"help": "move the reference's horizontal root to the character's at each new cycle of a looped clip (DeepMimic sync_char_root_pos)"})
     zero_reward_on_fall: bool = field(default=True, metadata={"help": "the step that ends in a fall earns 0, so falling never pays"})
@@ -109,6 +110,8 @@ class EnvConfig:
             raise ValueError(f"ground contact links {unknown} are not links of the {self.character} ({', '.join(character.link_names)})")
         if not (self.residual_force >= 0 and np.isfinite(self.residual_force)):
             raise ValueError(f"residual_force must be a fraction of body weight >= 0, got {self.residual_force}")
+        if not 0.0 <= self.residual_force_scale <= 1.0:
+            raise ValueError(f"residual_force_scale must be in [0, 1], got {self.residual_force_scale}")
         if not 0.0 <= self.residual_force_weight <= 1.0:
             raise ValueError(f"residual_force_weight must be in [0, 1], got {self.residual_force_weight}")
         if self.flight_starts not in FLIGHT_STARTS:

@@ -31,7 +31,8 @@ K = 2.0  # the regulariser's kernel on the squared normalised wrench: a = .3 on 
 class ResidualForce:
     """The wrench part of a batch of actions: scales, the world wrench per env, the reward factor."""
 
-    def __init__(self, fraction: float, weight: float, mass_kg: float, root_body: int, num_envs: int):
+    def __init__(self, fraction: float, weight: float, mass_kg: float, root_body: int, num_envs: int,
+                 strength: float = 1.0):
         if not fraction > 0:
             raise ValueError(f"residual force must be > 0 (a fraction of body weight), got {fraction}")
         if not 0.0 <= weight <= 1.0:
@@ -40,11 +41,22 @@ class ResidualForce:
         self.weight = float(weight)
         self.root_body = int(root_body)
         self.weight_n = float(mass_kg) * 9.81
-        self.scale = np.array([fraction * self.weight_n] * 3 + [fraction * self.weight_n * ARM_M] * 3)
+        self._full_scale = np.array([fraction * self.weight_n] * 3 + [fraction * self.weight_n * ARM_M] * 3)
+        self.scale = self._full_scale.copy()
+        self.strength = 1.0
+        self.set_strength(strength)
         self.local = np.zeros((num_envs, WRENCH_DIM))  # this step's wrench per env, root frame, N and N m
         self.force_fraction = np.zeros(num_envs)  # |force| / (m g) of this step, per env
         self._squares = np.zeros(num_envs)
         self._factor = np.zeros(num_envs)
+
+    def set_strength(self, strength: float) -> None:
+        """Scale the wrench's reach to `strength` x its full size (a help that decays over training,
+        `TrainConfig.residual_force_final`); the action's meaning and its price are unchanged."""
+        if not 0.0 <= strength <= 1.0:
+            raise ValueError(f"residual force strength must be in [0, 1], got {strength}")
+        self.strength = float(strength)
+        np.multiply(self._full_scale, self.strength, out=self.scale)
 
     def take(self, actions: np.ndarray) -> None:
         """Read the wrench part (B, 6) of a batch of actions (clipped to [-1, 1])."""

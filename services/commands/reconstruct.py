@@ -75,7 +75,8 @@ def run_reconstruct(args: argparse.Namespace) -> int:
                                    say=print)
             if args.save_track is not None:
                 track.save(args.save_track)
-        made = video_motion(track, config, args.video.stem, args.camera, str(args.track or args.video), use_ray)
+        made = video_motion(track, config, args.video.stem, args.camera, str(args.track or args.video), use_ray,
+                            say=print)
     finally:
         if ray_started:
             import ray

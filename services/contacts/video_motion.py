@@ -30,8 +30,9 @@ class VideoMotion:
     check: str = ""  # the reference check's one line (static camera)
 
 
-def video_motion(track, config, name: str, camera: str, source: str, use_ray: bool = True) -> VideoMotion:
-    """The reconstruction of `track` (from `source`, a file name for error lines) with its extras."""
+def video_motion(track, config, name: str, camera: str, source: str, use_ray: bool = True, say=None) -> VideoMotion:
+    """The reconstruction of `track` (from `source`, a file name for error lines) with its extras;
+    `say` gets the line naming the stretch of frames kept when a long gap cut the track."""
     from services.contacts.estimator import track_contacts
     from services.contacts.video_extras import video_extras
     from services.pose.camera_path import camera_path, decide_camera
@@ -41,7 +42,7 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
     from services.reconstruction.root_free import make_root_free
     from services.reconstruction.root_path import root_path_extras
 
-    track = crop_to_seen(track, source)
+    track = crop_to_seen(track, source, say)
     path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
     moving = decide_camera(camera, path, track.image_size[0], source)
     if moving:

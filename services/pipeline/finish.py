@@ -83,7 +83,9 @@ def finish_static_run(out: Path, video: Path, motion_path: Path, run_dir: Path, 
     with threadpool_limits(1, user_api="blas"), _bar(progress, steps, "rollout") as bar:
         rollout = first_frame_rollout(source.policy, env, lambda done, total: bar.update(done - bar.n))
     report, sim, _ = build_report(rollout, env.humanoid, reconstruction)
-    if env.core.residual is not None:
+    if env.core.residual is not None and env.core.residual.strength == 0:  # the help decayed to nothing in training
+        report["outcome"] += "; trained with a residual root force that decayed to zero: the body alone"
+    elif env.core.residual is not None:
         with threadpool_limits(1, user_api="blas"):
             report["without_residual_force"] = _unaided(source, reconstruction)
         report["outcome"] += _help_clause(report["residual_force_body_weight"], report["without_residual_force"])

@@ -34,6 +34,10 @@ class ReconstructionConfig:
                 "Pose2Sim, 4 cameras: 50 brings the centre of mass from 13-17 to 8-11 cm of the support (mean over "
                 "contact frames) for +0.7 to +1.5 px of reprojection error and -1.1 to +0.9 mm PA-MPJPE; 100 gets "
                 "5-8 cm for +1.4 to +3.2 px (bench/results/reconstruction_balance.json)"})
+    w_flat: float = field(default=10.0, metadata={
+        "help": "weight of the squared heel-to-toe height (length units) of a foot the contact estimator says is down: "
+                "it stands on its sole. 10: stance tilt 6-10 -> 1.2-2.8 cm, PA-MPJPE -0.5 to +1.6 mm; balancing cam01's "
+                "controller then completes without help (docs/video.md)"})
     balance_margin_m: float = field(default=0.05, metadata={
         "help": "distance (m) from the support within which the centre of mass costs nothing in the balance term"})
     # --- optimiser

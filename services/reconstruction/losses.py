@@ -84,6 +84,14 @@ def contact_height(foot_corners: torch.Tensor, contacts: torch.Tensor, unit_m: f
     return (contacts * height * height).sum(-1)
 
 
+def stance_tilt(heels: torch.Tensor, toes: torch.Tensor, contacts: torch.Tensor, unit_m: float) -> torch.Tensor:
+    """(T,) sum over the feet in contact of the squared height difference (length units) between
+    the sole's heel and toe points (T, F, 3): a foot that bears weight stands on its sole, not
+    on the edge of its toes or heel."""
+    rise = (toes[..., 2] - heels[..., 2]) / unit_m
+    return (contacts * rise * rise).sum(-1)
+
+
 def contact_sliding(foot_corners: torch.Tensor, contacts: torch.Tensor, unit_m: float, smooth: float = 0.1) -> torch.Tensor:
     """(T-1,) sum over the feet in contact at both ends of a frame pair of the horizontal step
     (length units) of the foot's centre (the mean of its corners (T, F, C, 3)), as the

@@ -64,11 +64,12 @@ from services.reconstruction.losses import (
     reprojection_error,
     reprojection_l1,
     smoothness,
+    stance_tilt,
     static_balance,
 )
 
 CONTACT_FEET = ("right", "left")  # the order of the feet in contact arrays, as `body.FOOT_LINKS`
-LOSS_NAMES = ("l2d", "l3d", "lsm", "ground", "contact", "slide", "balance")
+LOSS_NAMES = ("l2d", "l3d", "lsm", "ground", "contact", "slide", "balance", "flat")
 # The sole points of the feet (CONTACT_FEET order) that span the balance term's support.
 HEEL_POINTS = [fit_index("RHeel"), fit_index("LHeel")]
 TOE_POINTS = [fit_index("RToe"), fit_index("LToe")]
@@ -160,11 +161,14 @@ def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed:
         "contact": torch.zeros((), dtype=fit.dtype),
         "slide": torch.zeros((), dtype=fit.dtype),
         "balance": torch.zeros((), dtype=fit.dtype),
+        "flat": torch.zeros((), dtype=fit.dtype),
     }
     if setup.contacts is not None:
         contacts = torch.as_tensor(setup.contacts, dtype=fit.dtype)
         terms["contact"] = contact_height(corners, contacts, unit, ground).mean()
         terms["slide"] = contact_sliding(corners, contacts, unit).sum() / frames
+        if config.w_flat > 0:
+            terms["flat"] = stance_tilt(fit[:, HEEL_POINTS], fit[:, TOE_POINTS], contacts, unit).mean()
         if balance:
             terms["balance"] = static_balance(com[0], fit[:, HEEL_POINTS], fit[:, TOE_POINTS], contacts, unit,
                                               config.balance_margin_m).mean()
@@ -174,7 +178,7 @@ def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed:
 def total_loss(terms: dict, config: ReconstructionConfig) -> torch.Tensor:
     return (config.w_2d * terms["l2d"] + config.w_3d * terms["l3d"] + config.w_smooth * terms["lsm"]
             + config.w_ground * terms["ground"] + config.w_contact * terms["contact"] + config.w_slide * terms["slide"]
-            + config.w_balance * terms["balance"])
+            + config.w_balance * terms["balance"] + config.w_flat * terms["flat"])
 
 
 def optimise(setup: Setup, obs: ObservedPoints, config: ReconstructionConfig,

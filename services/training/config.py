@@ -47,6 +47,7 @@ class TrainConfig:
     plot_min_interval_s: float = field(default=30.0, metadata={"help": "and at least this many seconds between redraws (each costs ~0.2 s of the loop); the last iteration always redraws"})
     curriculum_start_s: float = field(default=0.5, metadata={"help": "episode-length curriculum: episodes start capped at this many seconds, the cap growing linearly to the horizon over curriculum_samples (DeepMimic: 0.5 s over 32 M); 0: off. Walk, ASI, same seed, eval NR at 1 M samples: .944 with 0.5 s over 1 M, .908 without (both no falls)"})
     curriculum_samples: int = field(default=1_000_000, metadata={"help": "samples over which the curriculum's cap grows to the full horizon"})
+    residual_force_final: float = field(default=1.0, metadata={"help": "a help that decays: the residual root wrench's strength (--env.residual-force) at the end, as a fraction; it holds for the first quarter of the samples, falls linearly to this by three quarters, and the last quarter trains, and best.pt is chosen, at it. 1: constant (measured: docs/video.md)"})
     eval_every: int = field(default=500_000, metadata={"help": "samples between deterministic evaluations during training (strict falls, evenly spaced phases; 0: never); figures go to metrics.jsonl (eval/...), TensorBoard and the learning curve"})
     eval_episodes: int = field(default=8, metadata={"help": "episodes per evaluation during training (sfv eval uses 32)"})
     handover_states: str | None = field(default=None, metadata={"help": "a .npz whose `states` start a share of the episodes at the clip's first frame (a scene-fit window after the first: the previous window's policy's states there, 002 section 5.3)"})
@@ -87,6 +88,8 @@ class TrainConfig:
             raise SfvError(f"--torch-threads must be >= 0 (0: every core), got {self.torch_threads}")
         if not self.asi_initial_std_scale > 0:
             raise SfvError(f"--asi-std-scale must be positive, got {self.asi_initial_std_scale}")
+        if not 0.0 <= self.residual_force_final <= 1.0:
+            raise SfvError(f"--residual-force-final must be in [0, 1], got {self.residual_force_final}")
         if self.curriculum_start_s < 0 or self.curriculum_samples <= 0:
             raise SfvError(f"--curriculum-start-s must be >= 0 and --curriculum-samples positive, got {self.curriculum_start_s}, {self.curriculum_samples}")
         if self.eval_every < 0 or self.eval_episodes <= 0:

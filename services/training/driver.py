@@ -33,7 +33,7 @@ from actors.envs.terrain_curriculum import LEVELS as TERRAIN_LEVELS
 from learner.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
 from learner.errors import NonFiniteError, SfvError, TrainingStopped
 from learner.ppo import PPOLearner
-from learner.schedule import linear_anneal
+from learner.schedule import decaying_help, linear_anneal
 from learner.tuple_sampling import select_tuples
 from services.ray_session import connect_ray
 from services.training.asi_connection import ASIConnection
@@ -116,9 +116,26 @@ class Trainer:
             return None
         return linear_anneal(c.curriculum_start_s, c.env.horizon_s, self.samples, c.curriculum_samples)
 
+    def _residual_strength(self) -> float | None:
+        """The residual root wrench's strength now (`residual_force_final`); None without a decay."""
+        c = self.config
+        if c.residual_force_final >= 1.0 or c.env.residual_force <= 0:
+            return None
+        # the first quarter learns the clip with the whole wrench, the middle half hands it over
+        # to the body, the last quarter trains (and chooses best.pt) at the final strength
+        return decaying_help(c.residual_force_final, self.samples, c.samples)
+
+    def _help_settled(self) -> bool:
+        """Evaluations compete for best.pt only at the final strength: an early, helped policy
+        would win on NR and be played with a help it no longer has."""
+        strength = self._residual_strength()
+        return strength is None or strength <= self.config.residual_force_final + 1e-9
+
     def _collect(self, weights, version: int, steps: int) -> list[dict]:
-        horizon = self._horizon_s()
+        horizon, strength = self._horizon_s(), self._residual_strength()
         options = {} if horizon is None else {"horizon_s": horizon}  # RolloutWorker.sample's optional arguments
+        if strength is not None:
+            options["residual_strength"] = strength
         if self.collector is not None:
             return self.collector.next_batch(weights, version, options)
         return self.runner.collect(weights, version, steps, options)
@@ -263,7 +280,7 @@ class Trainer:
             record.update(coverage)
             if evaluator.due(samples_before, self.samples, last=self.samples >= config.samples):
                 try:  # the current weights on strict episodes; figures land in metrics.jsonl and TensorBoard
-                    record.update(evaluator(learner.policy_weights()))
+                    record.update(evaluator(learner.policy_weights(), self._residual_strength()))
                 except Exception as exc:  # like the plot, an evaluation must never stop training
                     log.warning("evaluation at %d samples failed: %s: %s", self.samples, type(exc).__name__, exc)
                 else:
@@ -358,6 +375,8 @@ class Trainer:
         (the cartwheel's in-training eval went .867 at 6.5 M to .72 at 8 M), so the policy to
         evaluate, render and export is the best one seen, not the newest."""
         score = record.get("eval/normalized_return")
+        if not self._help_settled():
+            return
         if score is None or not math.isfinite(score) or (self.best_eval is not None and score <= self.best_eval):
             return
         self.best_eval = float(score)
@@ -379,6 +398,7 @@ class Trainer:
             "config": self.config.to_dict(),
             "best_eval": self.best_eval,
             "terrain_level": self.terrain_level,
+            "residual_force_scale": self._residual_strength(),  # the help this policy was trained with (None: constant)
         }
 
     def _checkpoint(self, learner: PPOLearner, asi_version: int) -> None:

@@ -215,7 +215,7 @@ class TrainingEvaluator:
             return False
         return last or samples_after // self.every > samples_before // self.every
 
-    def __call__(self, weights: dict) -> dict:
+    def __call__(self, weights: dict, residual_strength: float | None = None) -> dict:
         import time
 
         from threadpoolctl import threadpool_limits
@@ -227,6 +227,7 @@ class TrainingEvaluator:
         if self._env is None:
             reference = load_reference(self.config.motion, character_named(self.config.env.character))
             self._env = make_eval_env(reference, self.config.env)
+        self._env.set_residual_strength(residual_strength)  # a decaying help: the strength trained at now
         if self._policy is None:
             self._policy = NumpyPolicy(weights, max_batch=1)
         else:

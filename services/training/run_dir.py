@@ -1,6 +1,8 @@
 """The run directory: resolved config, metrics.jsonl, TensorBoard events, checkpoints."""
 from __future__ import annotations
 
+import dataclasses
+
 import json
 from pathlib import Path
 
@@ -77,6 +79,8 @@ def load_run(run_dir: str | Path, which: str = "best"):
     if not isinstance(payload.get("policy_weights"), dict):
         raise SfvError(f"{path}: checkpoint holds no policy weights")
     weights = {k: v.numpy() if hasattr(v, "numpy") else np.asarray(v) for k, v in payload["policy_weights"].items()}
+    if payload.get("residual_force_scale") is not None:  # a decaying help: play the policy at the strength it was trained at
+        config.env = dataclasses.replace(config.env, residual_force_scale=float(payload["residual_force_scale"]))
     return config, weights
 
 

@@ -213,3 +213,22 @@ def test_a_subject_lost_for_most_of_its_span_is_refused():
     track.valid[2:8] = True  # seen in 6 of frames 2..7, lost in none: kept, cropped to them
     cropped = crop_to_seen(track, "v.mp4")
     assert len(cropped) == 6 and cropped.start_frame == 2 and cropped.filled_frames == 0
+
+
+def test_a_gap_over_a_second_cuts_the_track_to_the_stretch_seen_longest():
+    frames = 120  # 30 fps: seen 0-49, unseen 1.5 s, seen 95-99, unseen 0.3 s, seen 110-111 (the park demo's man)
+    valid = np.zeros(frames, bool)
+    valid[0:50] = valid[95:100] = valid[110:112] = True
+    valid[20:30] = False  # a third of a second behind a tree: stays inside the motion, interpolated
+    track = PoseTrack(fps=30.0, image_size=(64, 48), keypoints2d=np.zeros((frames, 33, 2), np.float32),
+                      confidence=np.zeros((frames, 33), np.float32), world3d=np.zeros((frames, 33, 3), np.float32),
+                      valid=valid, presence=valid.astype(np.float32), rotation_used=np.zeros(frames, np.int16),
+                      filled_frames=int((~valid).sum()), start_frame=7, person_id=0)
+    lines = []
+    cropped = crop_to_seen(track, "park.mp4", lines.append)
+    assert (cropped.start_frame, len(cropped), cropped.filled_frames) == (7, 50, 10)
+    assert lines == ["subject frames: 7-56 (person 0 is unseen for 1.5 s from frame 57; a gap over 1 s is not interpolated, and the motion covers the stretch seen longest); --frames A:B "
+                     "chooses another"]
+    track.valid[0:47] = False  # the first stretch now holds 3 seen frames, the later one (95-111) 13: it is kept
+    track.valid[100:106] = True
+    assert crop_to_seen(track, "park.mp4").start_frame == 7 + 95
