@@ -122,7 +122,8 @@ class RolloutWorker:
         `residual_strength` sets the residual root wrench's (a help that decays; None: as it is)."""
         t0 = time.perf_counter()
         self.env.set_horizon(horizon_s)
-        self.env.set_residual_strength(residual_strength)
+        if residual_strength is not None:  # only imitation envs carry a wrench (task envs have none)
+            self.env.set_residual_strength(residual_strength)
         if self.policy is None:
             self.policy = NumpyPolicy(weights, max_batch=self.spec.num_envs)
         elif weights is not self._weights:  # in-process callers may hand the same dict again

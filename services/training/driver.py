@@ -119,17 +119,18 @@ class Trainer:
     def _residual_strength(self) -> float | None:
         """The residual root wrench's strength now (`residual_force_final`); None without a decay."""
         c = self.config
-        if c.residual_force_final >= 1.0 or c.env.residual_force <= 0:
+        final = getattr(c, "residual_force_final", 1.0)  # task trainings (TaskConfig) have no wrench
+        if final >= 1.0 or getattr(c.env, "residual_force", 0.0) <= 0:
             return None
         # the first quarter learns the clip with the whole wrench, the middle half hands it over
         # to the body, the last quarter trains (and chooses best.pt) at the final strength
-        return decaying_help(c.residual_force_final, self.samples, c.samples)
+        return decaying_help(final, self.samples, c.samples)
 
     def _help_settled(self) -> bool:
         """Evaluations compete for best.pt only at the final strength: an early, helped policy
         would win on NR and be played with a help it no longer has."""
         strength = self._residual_strength()
-        return strength is None or strength <= self.config.residual_force_final + 1e-9
+        return strength is None or strength <= getattr(self.config, "residual_force_final", 1.0) + 1e-9
 
     def _collect(self, weights, version: int, steps: int) -> list[dict]:
         horizon, strength = self._horizon_s(), self._residual_strength()
