@@ -40,6 +40,8 @@ class BenchConfig:
     scaling_iterations: int = field(default=6, metadata={"help": "PPO iterations (4096 samples each) per scaling run; the first is start-up, not measured"})
     scaling_synthetic_workers: tuple[int, ...] = field(default=(2,), metadata={"help": "synthetic (replaying) worker counts of the learner/driver ceiling"})
     scaling_learner_threads: int = field(default=2, metadata={"help": "torch threads of the learner in the ceiling runs"})
+    scaling_paced_workers: tuple[int, ...] = field(default=(), metadata={"help": "emulated worker counts (processes that sleep as long as a worker sampling scaling_paced_rate would): how this machine's driver and learner keep up with more workers than it has cores, e.g. 2,4,8,14"})
+    scaling_paced_rate: float = field(default=2300.0, metadata={"help": "samples/s of each emulated worker (one core of a bigger machine; a worker here: 2,335)"})
     terrain: str | None = field(default=None, metadata={"help": "worker suite: also M = envs_per_worker envs on this terrain at difficulty 1 (docs/terrain.md), with and without the heightmap, against the flat floor"})
 
     @classmethod

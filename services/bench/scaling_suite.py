@@ -19,6 +19,12 @@ worker to several that no training code can remove.
 The ceiling: the same runs with synthetic workers (`recorded_worker.py`: each replays the
 batch it first sampled, so sampling costs nothing) measure what the driver and the learner
 consume at most, on `scaling_learner_threads` torch threads, whatever the number of cores.
+
+A bigger machine, emulated (`scaling_paced_workers`): paced workers replay the same way but take
+as long as a worker sampling `scaling_paced_rate` samples/s would, sleeping instead of stepping,
+so 14 of them fit on 2 cores. The driver and the learner are real: this measures how samples/s
+would grow with workers on a machine whose cores each sample at that rate, while its learner is
+this machine's (`scaling_learner_threads` threads), and where the learner caps the loop.
 """
 from __future__ import annotations
 
@@ -37,8 +43,11 @@ from services.bench.steppers import RawPhysics
 LOOPS = {"sync": 0, "async": 1}  # --max-policy-lag of each loop
 
 
-def stem(runner: str, workers: int, loop: str, synthetic: bool = False) -> str:
-    return f"{'synthetic' if synthetic else 'scaling'}_{runner}_{workers}w_{loop}"
+KINDS = {"real": "scaling", "replay": "synthetic", "paced": "paced"}  # workers -> the metric names' prefix
+
+
+def stem(runner: str, workers: int, loop: str, kind: str = "real") -> str:
+    return f"{KINDS[kind]}_{runner}_{workers}w_{loop}"
 
 
 def steady_state(rows: list[dict]) -> dict[str, float]:
@@ -53,8 +62,10 @@ def steady_state(rows: list[dict]) -> dict[str, float]:
             "policy_lag": sum(r["policy_lag_mean"] for r in rest) / len(rest)}
 
 
-def _train(config: BenchConfig, out: Path, runner: str, workers: int, lag: int, synthetic: bool) -> dict[str, float]:
-    from services.bench.recorded_worker import RecordedWorker
+def _train(config: BenchConfig, out: Path, runner: str, workers: int, lag: int, kind: str) -> dict[str, float]:
+    import functools
+
+    from services.bench.recorded_worker import PacedWorker, RecordedWorker
     from services.training.config import TrainConfig
     from services.training.driver import Trainer
     from services.training.run_dir import read_metrics
@@ -63,7 +74,7 @@ def _train(config: BenchConfig, out: Path, runner: str, workers: int, lag: int, 
                         init="rsi", seed=config.seed, env=env_config_for(config.physics_hz), runner=runner,
                         max_policy_lag=lag, eval_every=0, plot_every=0, checkpoint_every=1000)
     train.samples = config.scaling_iterations * train.ppo.batch_size
-    if synthetic:
+    if kind != "real":
         train.torch_threads = config.scaling_learner_threads
         # A replayed batch is off-policy to every later version: the synchronous loop's updates
         # would stop at target_kl after their first minibatch (40 k "samples/s" measured, 0.8
@@ -71,8 +82,10 @@ def _train(config: BenchConfig, out: Path, runner: str, workers: int, lag: int, 
         # The ceiling is that of full updates: no early stop in either loop.
         train.ppo.target_kl = None
     trainer = Trainer(train, progress=False)
-    if synthetic:
+    if kind == "replay":
         trainer.worker_class = RecordedWorker
+    elif kind == "paced":
+        trainer.worker_class = functools.partial(PacedWorker, samples_per_s=config.scaling_paced_rate)
     with trainer:
         trainer.run()
     gc.collect()  # drop the run's actor handles so Ray frees their CPUs before the next run
@@ -88,15 +101,16 @@ def run_scaling_suite(config: BenchConfig, log) -> SuiteResult:
     counts = tuple(w for w in config.scaling_workers if w >= 1)
     started_ray = "ray" in config.scaling_runners and connect_ray(num_cpus=max(counts + (cores,)), log_to_driver=False)
     raw = RawPhysics(env_config_for(config.physics_hz))
-    grid = [(runner, workers, loop, False) for runner in config.scaling_runners for workers in counts for loop in LOOPS]
-    grid += [("processes", workers, loop, True) for workers in config.scaling_synthetic_workers for loop in LOOPS]
+    grid = [(runner, workers, loop, "real") for runner in config.scaling_runners for workers in counts for loop in LOOPS]
+    grid += [("processes", workers, loop, "replay") for workers in config.scaling_synthetic_workers for loop in LOOPS]
+    grid += [("processes", workers, loop, "paced") for workers in config.scaling_paced_workers for loop in LOOPS]
     try:
         with tempfile.TemporaryDirectory(prefix="sfv-bench-scaling-") as tmp:
             runs = iter(range(10**9))
 
-            def variant(runner, workers, loop, synthetic):
-                return lambda: {f"{stem(runner, workers, loop, synthetic)}_{k}": v for k, v in
-                                _train(config, Path(tmp) / f"run{next(runs)}", runner, workers, LOOPS[loop], synthetic).items()}
+            def variant(runner, workers, loop, kind):
+                return lambda: {f"{stem(runner, workers, loop, kind)}_{k}": v for k, v in
+                                _train(config, Path(tmp) / f"run{next(runs)}", runner, workers, LOOPS[loop], kind).items()}
 
             variants = {"raw_steps_per_s": lambda: rate_for(config.seconds, raw.chunk).wall}
             for n in _parallel_counts(counts, cores):
@@ -132,11 +146,12 @@ def _result(config: BenchConfig, values: dict, grid: list, cores: int) -> SuiteR
                 "iterations_per_run": config.scaling_iterations, "batch_size": 4096, "init": "rsi", "usable_cores": cores,
                 "workers": list(config.scaling_workers), "runners": list(config.scaling_runners), "loops": LOOPS,
                 "synthetic_workers": list(config.scaling_synthetic_workers),
-                "synthetic_learner_threads": config.scaling_learner_threads, "repeats": config.repeats}
+                "synthetic_learner_threads": config.scaling_learner_threads, "repeats": config.repeats,
+                "paced_workers": list(config.scaling_paced_workers), "paced_rate": config.scaling_paced_rate}
     result = SuiteResult("scaling", metrics, settings=settings)
     raw = metrics["raw_steps_per_s"]
-    for runner, workers, loop, synthetic in grid:
-        if synthetic:
+    for runner, workers, loop, kind in grid:
+        if kind != "real":
             continue
         name = stem(runner, workers, loop)
         top = metrics[f"{name}_samples_per_s"]
@@ -169,12 +184,19 @@ def plot_scaling(report: dict, out: Path) -> Path:
             ys = [metrics[f"{stem(runner, w, loop)}_samples_per_s"]["median"] for w in counts]
             ax.plot(counts, ys, "o-" if loop == "async" else "s:", label=f"{runner}, {loop}")
     for w in settings["synthetic_workers"]:  # the asynchronous loop's: the learner's full updates back to back
-        ceiling = metrics[f"{stem('processes', w, 'async', True)}_samples_per_s"]["median"]
+        ceiling = metrics[f"{stem('processes', w, 'async', 'replay')}_samples_per_s"]["median"]
         ax.axhline(ceiling, color="grey", lw=0.8)
         ax.annotate(f"learner/driver ceiling ({ceiling:,.0f})", (counts[0], ceiling), fontsize=7, va="bottom")
+    paced = settings.get("paced_workers") or []
+    if paced:  # emulated workers of a bigger machine: what they offer, and what this driver and learner took
+        rate = settings["paced_rate"]
+        ax.plot(paced, [rate * w for w in paced], color="tab:purple", ls="--", lw=0.8, label=f"emulated workers' offer ({rate:,.0f}/s each)")
+        for loop in settings["loops"]:
+            ys = [metrics[f"{stem('processes', w, loop, 'paced')}_samples_per_s"]["median"] for w in paced]
+            ax.plot(paced, ys, "^-" if loop == "async" else "v:", color="tab:purple", label=f"emulated, {loop}")
     ax.set_xlabel("rollout workers")
     ax.set_ylabel("samples/s, learning included")
-    ax.set_xticks(counts)
+    ax.set_xticks(sorted(set(counts) | set(paced)))
     ax.set_title(f"sfv training throughput ({cores} cores)")
     ax.legend(fontsize=8, loc="center right")  # clear of the ceiling line (top) and the curves (bottom)
     ax.grid(alpha=0.3)

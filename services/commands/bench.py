@@ -39,6 +39,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                    "at difficulty 1, with and without the heightmap (their ratios to the flat floor)")
     p.add_argument("--scaling-workers", default=None, help="scaling suite: comma-separated worker counts (default 1,2; the 16-core machine: 1,2,4,8,14)")
     p.add_argument("--scaling-runners", default=None, help="scaling suite: comma-separated runners (default processes,ray)")
+    p.add_argument("--scaling-paced-workers", default=None, help="scaling suite: also emulated worker counts, e.g. 2,4,8,14 (processes that sleep "
+                                                                "as long as a worker sampling --scaling-paced-rate would; the learner is real)")
+    p.add_argument("--scaling-paced-rate", type=float, default=None, help="samples/s of each emulated worker (default 2300: one core's worker)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     add_learning_arguments(p)
     add_videos_arguments(p)
@@ -65,6 +68,12 @@ def build_config(args):
         overrides["scaling_runners"] = _system_runners(args.scaling_runners, flag="--scaling-runners")
     if args.scaling_workers is not None:
         overrides["scaling_workers"] = _worker_counts(args.scaling_workers)
+    if args.scaling_paced_workers is not None:
+        overrides["scaling_paced_workers"] = _worker_counts(args.scaling_paced_workers, flag="--scaling-paced-workers")
+    if args.scaling_paced_rate is not None:
+        if not args.scaling_paced_rate > 0:
+            raise SfvError(f"--scaling-paced-rate must be positive samples/s, got {args.scaling_paced_rate:g}")
+        overrides["scaling_paced_rate"] = args.scaling_paced_rate
     config = BenchConfig.quick_defaults(**overrides) if args.quick else BenchConfig(**overrides)
     for name in ("repeats", "seconds", "system_iterations", "envs_per_worker", "physics_hz"):
         if not getattr(config, name) > 0:
@@ -86,13 +95,13 @@ def _system_runners(text: str, flag: str = "--system-runners") -> tuple[str, ...
     return runners
 
 
-def _worker_counts(text: str) -> tuple[int, ...]:
+def _worker_counts(text: str, flag: str = "--scaling-workers") -> tuple[int, ...]:
     try:
         counts = tuple(int(w) for w in text.split(",") if w.strip())
     except ValueError:
         counts = ()
     if not counts or min(counts) < 1:
-        raise SfvError(f"--scaling-workers {text!r}: comma-separated worker counts >= 1, e.g. 1,2,4")
+        raise SfvError(f"{flag} {text!r}: comma-separated worker counts >= 1, e.g. 1,2,4")
     return counts
 
 
@@ -144,7 +153,7 @@ def command_line(args) -> str:
     if args.quick:
         parts.append("--quick")
     for name in ("repeats", "seconds", "physics_hz", "envs_per_worker", "system_iterations", "system_runners", "peer_python",
-                 "pose_video", "pose_models", "seed", "scaling_workers", "scaling_runners"):
+                 "pose_video", "pose_models", "seed", "scaling_workers", "scaling_runners", "scaling_paced_workers", "scaling_paced_rate"):
         value = getattr(args, name)
         default = getattr(defaults, name) if name in ("physics_hz", "envs_per_worker", "seed") else None
         if value is not None and value != default:

@@ -68,6 +68,11 @@ class TaskConfig:
     eval_episodes: int = 1
     max_policy_lag: int = 0  # the shared loop's synchronous collection (its asynchronous one is not measured on tasks)
 
+    @property
+    def policy_lag(self) -> int:
+        """The lag the shared loop runs with (`TrainConfig.policy_lag`): always synchronous here."""
+        return self.max_policy_lag
+
     def validate(self) -> None:
         problems = list(self.env.problems())
         if self.runner not in RUNNER_NAMES:

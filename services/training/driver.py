@@ -143,7 +143,7 @@ class Trainer:
 
     def _merge(self, results: list[dict], version: int) -> dict:
         versions = {int(r["policy_version"]) for r in results}
-        oldest = version - self.config.max_policy_lag
+        oldest = version - self.config.policy_lag
         if not all(oldest <= v <= version for v in versions):
             raise SfvError(f"internal: a batch mixes policy versions {sorted(versions)} (expected {oldest}..{version})")
         batch = {k: np.concatenate([r[k] for r in results], axis=1) for k in TRAJECTORY_KEYS}
@@ -205,8 +205,8 @@ class Trainer:
                               terrain_start_level=self._terrain_start_level())
             self.runner = make_runner(config, self.worker_class, self.faults)
             self.runner.start(spec)
-            if config.max_policy_lag > 0:
-                self.collector = AsyncCollector(self.runner, config.steps_per_worker, config.max_policy_lag,
+            if config.policy_lag > 0:
+                self.collector = AsyncCollector(self.runner, config.steps_per_worker, config.policy_lag,
                                                 shares_per_batch=config.workers, timeout_s=config.worker_timeout_s)
             self.asi_drift = ASIDrift(asi.client) if config.init == "asi" else None
             metrics = MetricsLog(self.run_dir, resumed_at_samples=self.samples if checkpoint is not None else None)
@@ -510,7 +510,7 @@ def _set_torch_threads(config: TrainConfig) -> int:
         # iterations), so the update may use every core of this node. Asynchronous loop: the
         # workers keep their cores while the learner updates, so it takes what they leave (>= 1).
         cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-        busy = config.workers if config.max_policy_lag > 0 and config.runner != "in_process" else 0
+        busy = config.workers if config.policy_lag > 0 else 0
         threads = max(1, cores - busy)
     torch.set_num_threads(threads)
     return threads

@@ -6,6 +6,10 @@ lands while a share of the batch is being collected:
 - SIGKILL: the actor dies; Ray restarts it; its share is reissued.
 - SIGSTOP: the actor hangs; after --worker-timeout-s the driver kills it (Ray restarts it)
   and reissues its share.
+The synchronous loop (--max-policy-lag 0) and the asynchronous default: there, the other
+worker fills the batches while one restarts, and a hung worker is found by its own share's
+deadline, so the run is stopped (SIGTERM) once both faults are handled instead of ending at a
+budget it could reach without the hung worker.
 """
 from __future__ import annotations
 
@@ -34,9 +38,9 @@ def hit_busy_worker(train: TrainProcess, signum: int) -> int:
 
 
 def test_workers_killed_or_hung_mid_sample_are_restarted_and_their_shares_reissued(tmp_path):
-    iterations = 6
+    iterations, lag = 6, 0
     args = ("--workers", "2", "--envs-per-worker", "4", "--init", "asi", "--samples", str(iterations * BATCH),
-            *TINY_RUN, "--batch-size", str(BATCH), "--worker-timeout-s", str(TIMEOUT_S))
+            *TINY_RUN, "--batch-size", str(BATCH), "--worker-timeout-s", str(TIMEOUT_S), "--max-policy-lag", str(lag))
     with TrainProcess(tmp_path / "run", *args) as train:
         train.wait_rows(lambda rows: len(rows) >= 1, 180, "first iteration")
         killed = hit_busy_worker(train, signal.SIGKILL)
@@ -65,3 +69,30 @@ def test_workers_killed_or_hung_mid_sample_are_restarted_and_their_shares_reissu
     print(f"\nworker faults: killed in iteration {killed_at} (shares {rows[killed_at - 1]['batch_worker_indices']}), "
           f"hung in iteration {hang_row['iteration']} (shares {hang_row['batch_worker_indices']}); "
           f"failures={rows[-1]['worker_failures']} restarts={rows[-1]['worker_restarts']}; iteration seconds={seconds}")
+
+
+def test_asynchronous_loop_goes_on_while_a_killed_or_hung_worker_is_restarted(tmp_path):
+    lag = 1
+    args = ("--workers", "2", "--envs-per-worker", "4", "--init", "asi", "--samples", str(10_000 * BATCH),
+            *TINY_RUN, "--batch-size", str(BATCH), "--worker-timeout-s", str(TIMEOUT_S), "--max-policy-lag", str(lag))
+    with TrainProcess(tmp_path / "run", *args) as train:
+        train.wait_rows(lambda rows: len(rows) >= 1, 180, "first iteration")
+        killed = hit_busy_worker(train, signal.SIGKILL)
+        train.wait_rows(lambda rows: rows and rows[-1]["worker_restarts"] >= 1, 120, "the killed worker's restart counted")
+        hung = hit_busy_worker(train, signal.SIGSTOP)
+        before = len(train.rows())
+        rows = train.wait_rows(lambda rows: rows and rows[-1]["worker_restarts"] >= 2, 120 + TIMEOUT_S, "the hung worker found and restarted")
+        os.kill(train.pid, signal.SIGTERM)
+        assert train.wait(120) == 128 + signal.SIGTERM, train.output()
+
+    rows = train.rows()
+    assert f"no answer within {TIMEOUT_S:g} s, killed" in train.stderr()
+    assert len(rows) > before + 1, "training went on while the hung worker waited for its deadline"
+    assert [r["iteration"] for r in rows] == list(range(1, len(rows) + 1))
+    for r in rows:  # up to --max-policy-lag versions old; two shares, whoever sampled them
+        assert all(r["iteration"] - 1 - lag <= v <= r["iteration"] - 1 for v in r["batch_policy_versions"]), r
+        assert len(r["batch_worker_indices"]) == 2 and r["samples"] == r["iteration"] * BATCH, r
+    for victim in (killed, hung):
+        assert not os.path.exists(f"/proc/{victim}") or "RolloutWorker" not in cmdline(victim)
+    checkpoint = load_checkpoint(latest_checkpoint(train.out))
+    assert checkpoint["samples"] == rows[-1]["samples"] and checkpoint["worker_restarts"] >= 2

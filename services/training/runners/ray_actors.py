@@ -46,7 +46,8 @@ class RayRunner(WorkerRunner):
         pids = ray.get([w.pid.remote() for w in self.workers])  # construction errors surface here
         self._pids = dict(enumerate(pids))
         self._restarts_seen = [0] * len(self.workers)  # Ray's own restart count per actor, as last read
-        self._async_pending: dict = {}  # object ref -> worker index (the asynchronous interface)
+        self._async_pending: dict = {}  # object ref -> (worker index, submitted at): the asynchronous interface
+        self._restart_watch: dict[int, int] = {}  # lost worker -> Ray's restart count for it when it was lost
 
     def _sample(self, weights, version, steps, options):
         for attempt in range(MAX_RAY_RESTARTS_PER_ITERATION + 1):
@@ -87,7 +88,7 @@ class RayRunner(WorkerRunner):
 
     def submit(self, index, steps, options):
         ref, _, version = self._published
-        self._async_pending[self.workers[index].sample.remote(ref, version, steps, **options)] = index
+        self._async_pending[self.workers[index].sample.remote(ref, version, steps, **options)] = (index, time.monotonic())
 
     def poll(self, timeout):
         if not self._async_pending:
@@ -97,34 +98,54 @@ class RayRunner(WorkerRunner):
         except Exception as exc:  # noqa: BLE001  (only a dead local Ray is handled here)
             if self.config.ray_address or local_ray_alive():
                 raise
-            lost = sorted(self._async_pending.values())
+            lost = sorted(index for index, _ in self._async_pending.values())
             self._async_pending.clear()
             self._restart_local_ray(int(self._published[2]), exc)
             return [(index, None) for index in lost]
 
     def _poll_once(self, timeout):
+        """Each share has its own deadline, `timeout` after it was submitted: a worker that hangs
+        is found while the others keep answering (they would fill every batch without it)."""
         import ray
 
         pending = self._async_pending
-        ready, _ = ray.wait(list(pending), num_returns=1, timeout=timeout)
-        if not ready:  # every outstanding worker hangs: kill them (Ray restarts them)
-            hung = list(pending.items())
-            pending.clear()
-            for ref, index in hung:
-                ray.kill(self.workers[index], no_restart=False)
-                self._lost(index, f"no answer within {timeout:g} s, killed")
-            return [(index, None) for _, index in hung]
-        ready, _ = ray.wait(list(pending), num_returns=len(pending), timeout=0)  # and whatever else is done
-        done = []
-        for ref in ready:
-            index = pending.pop(ref)
-            result, reason = _fetch_share(ref, index)
-            if result is None:
-                self._lost(index, reason)
-            done.append((index, result))
-        if any(result is None for _, result in done):
-            self._count_restarts()
+        done: list = []
+        while pending and not done:
+            first_due = min(started for _, started in pending.values()) + timeout
+            ray.wait(list(pending), num_returns=1, timeout=max(0.0, first_due - time.monotonic()))
+            ready, _ = ray.wait(list(pending), num_returns=len(pending), timeout=0)  # whatever is done
+            for ref in ready:
+                index, _ = pending.pop(ref)
+                done.append((index, self._answer(ref, index)))
+            now = time.monotonic()
+            for ref, (index, started) in list(pending.items()):
+                if now - started >= timeout:  # overdue: the worker hangs; kill it (Ray restarts it)
+                    del pending[ref]
+                    ray.kill(self.workers[index], no_restart=False)
+                    self._lost(index, f"no answer within {timeout:g} s, killed")
+                    done.append((index, None))
+        if self._restart_watch:
+            self._watch_restarts({index for index, result in done if result is not None})
         return done
+
+    def _watch_restarts(self, answered: set[int]) -> None:
+        """Ray's restart counts, read while a lost worker's restart is not yet counted: the other
+        workers may fill every batch while it restarts, so its next answer may come late or never."""
+        self._count_restarts()
+        if self._restarts_seen is None:
+            self._restart_watch.clear()
+            return
+        for index, count in list(self._restart_watch.items()):
+            if self._restarts_seen[index] > count or index in answered:  # counted, or it answers without having died
+                del self._restart_watch[index]
+
+    def _answer(self, ref, index: int) -> dict | None:
+        result, reason = _fetch_share(ref, index)
+        if result is None:
+            self._lost(index, reason)
+        else:
+            self._note_pid(index, int(result["worker_pid"]))  # restarts by changed pids, where Ray's counts are unavailable
+        return result
 
     def close(self) -> None:
         """Kill this run's workers and spec holder now. Left to Ray's reference counting, an
@@ -144,6 +165,8 @@ class RayRunner(WorkerRunner):
 
     def _lost(self, index: int, reason: str) -> None:
         self.faults.failures += 1
+        if self._restarts_seen is not None:
+            self._restart_watch.setdefault(index, self._restarts_seen[index])
         log.warning("rollout worker %d failed (%s); it is handed a new share", index, reason)
 
     def _note_pid(self, index: int, pid: int) -> None:

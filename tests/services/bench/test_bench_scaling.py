@@ -1,5 +1,5 @@
 """`sfv bench --suite scaling`: throughput against workers, synchronous and asynchronous, and the
-learner/driver ceiling with synthetic workers."""
+learner/driver ceiling with synthetic workers, and more workers than cores emulated by paced ones."""
 from __future__ import annotations
 
 import json
@@ -33,7 +33,8 @@ def test_bad_scaling_workers_is_a_one_line_error(tmp_path, capsys):
 def test_quick_scaling_suite_on_the_processes_runner(tmp_path):
     out = tmp_path / "scaling.json"
     assert main(["bench", "--suite", "scaling", "--quick", "--quiet", "--repeats", "1", "--scaling-workers", "1",
-                 "--scaling-runners", "processes", "--out", str(out)]) == 0
+                 "--scaling-runners", "processes", "--scaling-paced-workers", "3", "--scaling-paced-rate", "1000",
+                 "--out", str(out)]) == 0
     suite = json.loads(out.read_text())["suites"]["scaling"]
     metrics = {k: v["median"] for k, v in suite["metrics"].items()}
     assert metrics["scaling_processes_1w_sync_policy_lag"] == 0.0
@@ -43,4 +44,8 @@ def test_quick_scaling_suite_on_the_processes_runner(tmp_path):
         assert suite["ratios"][f"scaling_processes_1w_{loop}_over_raw"]["value"] == pytest.approx(
             metrics[f"scaling_processes_1w_{loop}_samples_per_s"] / metrics["raw_steps_per_s"])
     assert "synthetic_processes_2w_async_samples_per_s" in metrics
+    for loop in ("sync", "async"):  # 3 emulated workers offer 3 x 1,000 samples/s; replayed unpaced they give ~10 k
+        # (a short window: the asynchronous loop's first measured batch started sampling during the update before it)
+        assert 0.0 < metrics[f"paced_processes_3w_{loop}_samples_per_s"] <= 1.5 * 3 * 1000
+    assert suite["settings"]["paced_workers"] == [3]
     assert (tmp_path / "scaling.png").is_file()
