@@ -41,7 +41,7 @@ class TrainConfig:
     runner: str = field(default="ray", metadata={"choices": RUNNER_NAMES, "help": "how rollout workers run: ray (Ray actors, restarted when they die), in_process (this process, no Ray: debugging, CI) or processes (spawned processes over pipes: hosts without Ray)"})
     device: str = field(default="auto", metadata={"help": "torch device of the learner: auto (the GPU when torch sees one, else the CPU), cpu, cuda, cuda:N"})
     torch_threads: int = field(default=0, metadata={"help": "learner's torch CPU threads; 0: the cores the workers leave (at least 1) in the asynchronous loop, every core of this node in the synchronous one, where workers wait while the learner updates (sync, 2 workers on 2 cores: 0.60-0.64 of raw with 2 threads, 0.52 with 1)"})
-    max_policy_lag: int = field(default=1, metadata={"help": "K >= 1: workers keep sampling with weights up to K updates old while the learner updates (decoupled PPO clipping, --ppo.max-importance-weight); 0: synchronous, workers wait for each update (bit-reproducible). --runner in_process is always synchronous"})
+    max_policy_lag: int = field(default=0, metadata={"help": "0: synchronous, workers wait for each update (bit-reproducible); K >= 1: workers keep sampling with weights up to K updates old while the learner updates (decoupled PPO clipping; 13 % more samples/s on 2 cores, fewer NR per sample on the jump: docs/scaling.md). in_process: always 0"})
     worker_timeout_s: float = field(default=300.0, metadata={"help": "give up on a worker's batch after this long and hand it to another"})
     plot_every: int = field(default=5, metadata={"help": "iterations between redraws of the learning-curve PNG (0: never)"})
     plot_min_interval_s: float = field(default=30.0, metadata={"help": "and at least this many seconds between redraws (each costs ~0.2 s of the loop); the last iteration always redraws"})
@@ -177,8 +177,6 @@ def _upgrade(d: dict) -> dict:
     with the settings that run was trained with, so `sfv eval`, `render`, `export` and
     `--resume` still build its env. (Two feature details changed for every run: end effectors
     are scored by their height above the ground, and the centre of mass's velocity is captured.)"""
-    if "ppo" in d and "max_policy_lag" not in d:  # a whole config written before the asynchronous loop: it resumes synchronous
-        d["max_policy_lag"] = 0
     env = dict(d.get("env", {}))
     if env and "target_lead_s" not in env:  # written before the residual base led the reference step
         env["target_lead_s"] = 0.0

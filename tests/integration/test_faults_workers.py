@@ -6,7 +6,7 @@ lands while a share of the batch is being collected:
 - SIGKILL: the actor dies; Ray restarts it; its share is reissued.
 - SIGSTOP: the actor hangs; after --worker-timeout-s the driver kills it (Ray restarts it)
   and reissues its share.
-The synchronous loop (--max-policy-lag 0) and the asynchronous default: there, the other
+The synchronous loop (the default) and the asynchronous one (--max-policy-lag 1): there, the other
 worker fills the batches while one restarts, and a hung worker is found by its own share's
 deadline, so the run is stopped (SIGTERM) once both faults are handled instead of ending at a
 budget it could reach without the hung worker.

@@ -167,9 +167,3 @@ def test_a_run_config_written_with_the_serial_switch_loads_as_the_in_process_run
     assert TrainConfig.from_dict(old).runner == "in_process"
     assert TrainConfig.from_dict({**TrainConfig().to_dict(), "serial": False}).runner == "ray"
 
-
-def test_a_run_config_written_before_the_asynchronous_loop_resumes_synchronous():
-    old = TrainConfig().to_dict()
-    del old["max_policy_lag"]
-    assert TrainConfig.from_dict(old).policy_lag == 0
-    assert TrainConfig.from_dict(TrainConfig().to_dict()).policy_lag == 1  # written since: as saved

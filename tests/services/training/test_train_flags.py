@@ -24,20 +24,21 @@ def test_epochs_learning_rate_and_threads_reach_the_config(tmp_path):
     assert _set_torch_threads(config) == 1
 
 
-def test_defaults_are_one_pass_asynchronous_and_the_learner_takes_the_cores_the_workers_leave(tmp_path):
+def test_defaults_are_one_pass_synchronous_and_every_core(tmp_path):
     config = train.build_config(parse("--out", str(tmp_path / "run")))
     assert config.ppo.update_epochs == 1  # DeepMimic's single pass over each batch
-    assert config.policy_lag == 1  # the asynchronous loop
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    assert _set_torch_threads(config) == max(1, cores - config.workers)
-
-
-@pytest.mark.parametrize("flags", [("--max-policy-lag", "0"), ("--runner", "in_process")])
-def test_the_synchronous_loop_gives_the_learner_every_core(tmp_path, flags):
-    config = train.build_config(parse("--out", str(tmp_path / "run"), *flags))
-    assert config.policy_lag == 0
+    assert config.policy_lag == 0  # the synchronous loop (docs/scaling.md: the jump learns less per sample asynchronously)
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     assert _set_torch_threads(config) == cores
+
+
+def test_the_asynchronous_loop_gives_the_learner_the_cores_the_workers_leave_but_not_in_process(tmp_path):
+    config = train.build_config(parse("--out", str(tmp_path / "run"), "--max-policy-lag", "1"))
+    assert config.policy_lag == 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert _set_torch_threads(config) == max(1, cores - config.workers)
+    in_process = train.build_config(parse("--out", str(tmp_path / "run2"), "--max-policy-lag", "1", "--runner", "in_process"))
+    assert in_process.policy_lag == 0 and _set_torch_threads(in_process) == cores
 
 
 def test_sample_counts_take_the_benchmarks_suffixes(tmp_path):
