@@ -4,6 +4,9 @@
 Worker processes get one BLAS/OpenMP thread each, as Ray gives its 1-CPU actors. A worker
 that raises stops the run with its error; a worker process that dies (killed, out of memory)
 is started again and its share handed to it again, with a line saying so (`worker_restarts`).
+A worker that hangs (stopped, deadlocked) is found by its share's own deadline,
+`worker_timeout_s` after the share was sent, is killed and started again the same way; in the
+asynchronous interface the other workers go on answering meanwhile (as `RayRunner` does).
 """
 from __future__ import annotations
 
@@ -11,6 +14,7 @@ import contextlib
 import multiprocessing as mp
 import os
 import signal
+import time
 from multiprocessing.connection import wait as wait_for_pipes
 
 from learner.errors import SfvError
@@ -77,9 +81,20 @@ class ProcessWorker:
         with contextlib.suppress(OSError):
             self.conn.send(None)
         self.proc.join(timeout=10)
+        self.kill()
+
+    def kill(self) -> None:
+        """SIGKILL (a stopped process dies too), then reap it."""
         if self.proc.is_alive():
             self.proc.kill()
             self.proc.join()
+        self.conn.close()
+
+    def hung(self, timeout: float) -> WorkerProcessDied:
+        """Kill this worker, which gave no answer within `timeout` s; the cause to report."""
+        pid = self.proc.pid
+        self.kill()
+        return WorkerProcessDied(f"worker {self.index}: no answer within {timeout:g} s, killed (process {pid})")
 
 
 class ProcessRunner(WorkerRunner):
@@ -91,7 +106,7 @@ class ProcessRunner(WorkerRunner):
             self.workers = [ProcessWorker(self._context, self.worker_class, spec, i) for i in range(self.config.workers)]
         for worker in self.workers:
             worker.receive()  # construction errors surface here, before the first iteration
-        self._pending: set[int] = set()
+        self._pending: dict[int, float] = {}  # the asynchronous interface: worker index -> share sent at
 
     def _replace(self, index: int, cause: WorkerProcessDied) -> None:
         """A fresh process for worker `index`, built and ready."""
@@ -104,41 +119,70 @@ class ProcessRunner(WorkerRunner):
         self._pids.pop(index, None)  # its new pid is not another restart
 
     def _sample(self, weights, version, steps, options):
+        """Every worker's share; one lost to a dead or hung process is sent again to its new
+        process (three losses of one share stop the run)."""
         request = (weights, version, steps, options)
-        for worker in self.workers:
+        results: dict[int, dict] = {}
+        losses = dict.fromkeys(range(len(self.workers)), 0)
+        sent = {}
+        for index, worker in enumerate(self.workers):
             worker.conn.send(request)
-        return [self._receive_share(index, request) for index in range(len(self.workers))]
+            sent[index] = time.monotonic()
+        timeout = float(self.config.worker_timeout_s)
+        while sent:
+            for index, outcome in self._wait(sent, timeout):
+                if isinstance(outcome, WorkerProcessDied):
+                    losses[index] += 1
+                    if losses[index] == 3:  # not a transient fault
+                        raise SfvError(f"rollout worker {index}: its process died 3 times on one share, giving up ({outcome})")
+                    self.faults.failures += 1
+                    self._replace(index, outcome)
+                    self.workers[index].conn.send(request)
+                    sent[index] = time.monotonic()
+                else:
+                    results[index] = outcome
+        return [results[index] for index in range(len(self.workers))]
 
-    def _receive_share(self, index: int, request) -> dict:
-        for _ in range(3):  # a process that dies three times on one share is not a transient fault
+    def _wait(self, sent: dict[int, float], timeout: float) -> list[tuple[int, object]]:
+        """Wait, no later than the first share's deadline (`timeout` s after it was sent), for the
+        workers in `sent` (index -> sent at); (index, share or the `WorkerProcessDied` that lost
+        it) for each that answered, died or is overdue (killed here). Those leave `sent`."""
+        wait_s = max(0.0, min(sent.values()) + timeout - time.monotonic())
+        conns = {self.workers[index].conn: index for index in sent}
+        out = []
+        for conn in wait_for_pipes(list(conns), timeout=wait_s):
+            index = conns[conn]
+            del sent[index]
             try:
-                return self.workers[index].receive()
+                out.append((index, self.workers[index].receive()))
             except WorkerProcessDied as exc:
-                self.faults.failures += 1
-                self._replace(index, exc)
-                self.workers[index].conn.send(request)
-        raise SfvError(f"rollout worker {index}: its process died 3 times on one share, giving up")
+                out.append((index, exc))
+        now = time.monotonic()
+        for index, started in list(sent.items()):
+            if now - started >= timeout:  # overdue: the process hangs
+                del sent[index]
+                out.append((index, self.workers[index].hung(timeout)))
+        return out
 
     def submit(self, index, steps, options):
         weights, version = self._published
         self.workers[index].conn.send((weights, version, steps, options))
-        self._pending.add(index)
+        self._pending[index] = time.monotonic()
 
     def poll(self, timeout):
-        conns = {self.workers[i].conn: i for i in self._pending}
+        """The shares done by now, at least one unless nothing is pending. Each share has its own
+        deadline, `timeout` s after it was submitted: a worker past it is killed and started
+        again, and its share comes back as None, while the others go on answering."""
         done = []
-        for conn in wait_for_pipes(list(conns), timeout=timeout):
-            index = conns[conn]
-            self._pending.discard(index)
-            try:
-                result = self.workers[index].receive()
-            except WorkerProcessDied as exc:
-                self.faults.failures += 1
-                self._replace(index, exc)
-                result = None
-            else:
-                self._note_pid(index, int(result["worker_pid"]))
-            done.append((index, result))
+        while self._pending and not done:
+            for index, outcome in self._wait(self._pending, timeout):
+                if isinstance(outcome, WorkerProcessDied):
+                    self.faults.failures += 1
+                    self._replace(index, outcome)
+                    done.append((index, None))
+                else:
+                    self._note_pid(index, int(outcome["worker_pid"]))
+                    done.append((index, outcome))
         return done
 
     def close(self) -> None:
