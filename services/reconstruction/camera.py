@@ -89,7 +89,12 @@ def fit_translations(offsets_cam: np.ndarray, keypoints2d: np.ndarray, confidenc
 
     Linear least squares on the cross-multiplied projection equations
     f (X + t_x) = (u - c_x)(Z + t_z), f (Y + t_y) = (v - c_y)(Z + t_z), weighted by confidence.
-    A frame with fewer than two confident points takes the median translation of the others.
+    A frame with fewer than two confident points (a frame the subject was not seen in, whose
+    keypoints were interpolated) takes the translation interpolated in time between the nearest
+    solved frames (held at the clip's ends). The median of the others, used before, is the
+    middle of a walk: on the park walk read at 25 fps, one unseen frame at the start was put
+    1.3 m off the path, its neighbours fitted at 139-242 px of reprojection error and the root
+    moved 40 m/s there.
     """
     frames, points = offsets_cam.shape[:2]
     uv = keypoints2d - principal
@@ -106,6 +111,10 @@ def fit_translations(offsets_cam: np.ndarray, keypoints2d: np.ndarray, confidenc
     for t in np.flatnonzero(solvable):
         translations[t] = np.linalg.lstsq(a[t], b[t], rcond=None)[0]
     good = solvable & (translations[:, 2] > min_depth)
-    fallback = np.median(translations[good], axis=0) if good.any() else np.array([0.0, 0.0, 3.0])
-    translations[~good] = fallback
+    if not good.any():
+        translations[:] = (0.0, 0.0, 3.0)
+        return translations
+    known, missing = np.flatnonzero(good), np.flatnonzero(~good)
+    for axis in range(3):
+        translations[missing, axis] = np.interp(missing, known, translations[known, axis])
     return translations

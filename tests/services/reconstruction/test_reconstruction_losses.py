@@ -172,6 +172,26 @@ def test_fit_translations_recovers_the_camera_frame_position():
     assert np.allclose(found, root_cam, atol=1e-6)
 
 
+def test_fit_translations_interpolates_frames_without_confident_points():
+    """A walker crossing the image: an unseen frame near the start lies between its neighbours,
+    not at the clip's median position (the middle of the walk)."""
+    frames = 20
+    params, cam = random_params(frames, seed=6), camera()
+    with torch.no_grad():
+        params.root_pos[:, 0] = torch.linspace(-2.0, 2.0, frames, dtype=params.root_pos.dtype)
+        fit, _ = body_points(params.root_pos, params.root_quat(), params.joint_quats())
+    fit = fit.numpy()
+    root_cam = cam.to_camera(params.root_pos.detach().numpy())
+    offsets_cam = (fit - params.root_pos.detach().numpy()[:, None]) @ cam.rotation.T
+    confidence = np.ones((frames, NUM_FIT))
+    confidence[[0, 2, 3]] = 0.0  # unseen: the first frame and two near the start
+    found = fit_translations(offsets_cam, cam.project(fit), confidence, cam.focal, cam.principal)
+    assert np.allclose(found[1], root_cam[1], atol=1e-6) and np.allclose(found[4:], root_cam[4:], atol=1e-6)
+    assert np.allclose(found[0], found[1])  # held at the clip's start
+    assert np.allclose(found[2], found[1] + (found[4] - found[1]) / 3, atol=1e-9)
+    assert np.allclose(found[3], found[1] + 2 * (found[4] - found[1]) / 3, atol=1e-9)
+
+
 def test_label_flips_found_by_temporal_coherence_and_undone():
     clip = make_clip(frames=30, pixel_noise=1.0, depth_noise_m=0.01, seed=3)
     obs = observe(clip.track)
