@@ -36,9 +36,9 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
     from services.contacts.estimator import track_contacts
     from services.contacts.video_extras import video_extras
     from services.pose.camera_path import camera_path, decide_camera
-    from services.pose.subject import crop_to_seen
+    from services.pose.subject import crop_to_seen, track_window
     from services.reconstruction import reconstruct_on_ray, reconstruct_track
-    from services.reconstruction.plausibility import check_reference
+    from services.reconstruction.plausibility import check_reference, unsettled_start
     from services.reconstruction.root_free import make_root_free
     from services.reconstruction.root_path import root_path_extras
 
@@ -55,5 +55,19 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
         free.extras.update(root_path_extras(free))  # the path the contacts give (root_path.py)
         return VideoMotion(free, track, path, moving)
     motion, check = check_reference(motion, motion.extras.get("contacts"))
+    cut, jolt = unsettled_start(motion)
+    if cut and len(track) - cut >= MIN_FRAMES_AFTER_CUT:  # a subject coming into view: start where the motion settles
+        track = track_window(track, cut, len(track))
+        path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
+        if say is not None:
+            say(f"subject frames: from frame {track.start_frame} (the first {cut} frames, {cut / float(track.fps):.2f} s, "
+                f"are left out: the root's velocity changes by {jolt:.1f} m/s from one frame to the next there, as a "
+                "body half in view is read); --frames A:B chooses others")
+        motion = reconstruct(track, config, name, track_contacts)
+        motion.extras.update(video_extras(track, path, moving))
+        motion, check = check_reference(motion, motion.extras.get("contacts"))
     motion.extras["reference_check"] = np.array(check.line)
     return VideoMotion(motion, track, path, moving, check.line)
+
+
+MIN_FRAMES_AFTER_CUT = 30  # a second at 30 fps: a shorter motion is no clip to learn from

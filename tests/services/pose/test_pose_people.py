@@ -227,8 +227,45 @@ def test_a_gap_over_a_second_cuts_the_track_to_the_stretch_seen_longest():
     lines = []
     cropped = crop_to_seen(track, "park.mp4", lines.append)
     assert (cropped.start_frame, len(cropped), cropped.filled_frames) == (7, 50, 10)
-    assert lines == ["subject frames: 7-56 (person 0 is unseen for 1.5 s from frame 57; a gap over 1 s is not interpolated, and the motion covers the stretch seen longest); --frames A:B "
-                     "chooses another"]
+    assert lines == ["subject frames: 7-56 (person 0 is unseen for 1.5 s from frame 57; a gap over 1 s is not interpolated unless the person moves on "
+                     "across it as before, and the motion covers the stretch seen longest); --frames A:B chooses another"]
     track.valid[0:47] = False  # the first stretch now holds 3 seen frames, the later one (95-111) 13: it is kept
     track.valid[100:106] = True
     assert crop_to_seen(track, "park.mp4").start_frame == 7 + 95
+
+
+def _walker_track(frames: int, hidden: slice, reappear_shift=(0.0, 0.0), reappear_scale=1.0) -> PoseTrack:
+    """A person 300 px tall crossing the image at 10 px per frame, hidden in `hidden`; after it,
+    moved by `reappear_shift` px and scaled by `reappear_scale` (a jump down, a step closer)."""
+    t = np.arange(frames, dtype=np.float64)
+    body = np.zeros((33, 2))
+    body[:, 1] = np.linspace(-150.0, 150.0, 33)  # 300 px from head to feet; the hips (23, 24) at +59 px
+    keypoints = np.repeat(body[None], frames, axis=0)
+    after = np.arange(frames) >= hidden.stop
+    keypoints[after] *= reappear_scale
+    keypoints[..., 0] += (1500.0 - 10.0 * t)[:, None]
+    keypoints[..., 1] += 600.0
+    keypoints[after] += reappear_shift
+    valid = np.ones(frames, bool)
+    valid[hidden] = False
+    confidence = np.where(valid[:, None], 0.9, 0.0).astype(np.float32).repeat(33, axis=1)
+    return PoseTrack(fps=30.0, image_size=(1920, 1080), keypoints2d=keypoints.astype(np.float32), confidence=confidence,
+                     world3d=np.zeros((frames, 33, 3), np.float32), valid=valid, presence=valid.astype(np.float32),
+                     rotation_used=np.zeros(frames, np.int16), filled_frames=int((~valid).sum()), person_id=6)
+
+
+def test_a_walker_hidden_longer_than_a_second_who_moves_on_as_before_is_interpolated():
+    """The park walk behind a pole: hidden 1.5 s, she reappears where her pace takes her."""
+    lines = []
+    track = _walker_track(150, slice(50, 95))
+    cropped = crop_to_seen(track, "pole.mp4", lines.append)
+    assert (cropped.start_frame, len(cropped), cropped.filled_frames) == (0, 150, 45)
+    assert lines == ["subject gaps interpolated: person 6 is unseen for 1.50 s from frame 50 (over 1 s, but moving on across it as before it)"]
+    # Reappearing half a body lower, or 1.5 times as large, is no walk behind a pole: cut as before.
+    for changed in (_walker_track(150, slice(50, 95), reappear_shift=(0.0, 150.0)),
+                    _walker_track(150, slice(50, 95), reappear_scale=1.5)):
+        lines.clear()
+        cropped = crop_to_seen(changed, "pole.mp4", lines.append)
+        assert (cropped.start_frame, len(cropped)) == (95, 55) and lines[0].startswith("subject frames: 95-149")
+    # Beyond the identity join's reach (3 s) a gap is never interpolated.
+    assert len(crop_to_seen(_walker_track(250, slice(50, 150)), "pole.mp4")) == 100

@@ -115,3 +115,36 @@ def test_a_repaired_frame_keeps_its_lowest_joint_at_the_height_of_its_neighbours
     assert lowest[30] == pytest.approx((lowest[29] + lowest[31]) / 2)  # on the neighbours' height, not sunk
     assert checked.root_pos[30, 2] == pytest.approx(lowest[30] + 1.0)  # the pose kept: the root 1.0 m above it
     assert lowest[30] > 0.05  # interpolating the root's own height would have left it at the floor
+
+
+def test_a_run_of_wrong_frames_at_the_start_is_repaired_to_the_walk_after_it():
+    """The park walk behind a pole: her first four frames, half behind a tree, put the root off
+    by decreasing amounts (7.8 m/s steps), and a two-frame spike follows; the first pass's local
+    median at the start is those steps' own, so it flags only the spike."""
+    frames, fps = 60, 30.0
+    root = np.column_stack((-1.2 * np.arange(frames) / fps, np.zeros(frames), np.full(frames, 0.9)))
+    root[:4, 0] += [0.9, 0.68, 0.45, 0.22]
+    root[5:7, 0] += 1.0
+    motion = ReferenceMotion(name="t", frame_times=np.arange(frames) / fps, root_pos=root,
+                             root_rot=np.tile([1.0, 0.0, 0.0, 0.0], (frames, 1)),
+                             joint_rot=np.tile([1.0, 0.0, 0.0, 0.0], (frames, 12, 1)), loop=False, extras={})
+    assert not flag_steps(root, fps, None)["spike"][:3].any()  # the start's steps are their own median at first
+    checked, check = check_reference(motion)
+    assert {0, 1, 2, 5, 6} <= set(check.repaired_frames.tolist())
+    assert root_speeds(checked.root_pos, fps).max() < 3.0  # no launch: the walk's pace within a couple of m/s
+    assert np.linalg.norm(checked.sample(0.0).root_lin_vel) < 3.0
+
+
+def test_an_unsettled_start_is_found_and_a_walk_that_starts_at_once_is_not():
+    """Frames read while the subject steps out from behind a tree: the root jolts there."""
+    from services.reconstruction.plausibility import START_DV_M_S, unsettled_start
+
+    frames = 60
+    walk = np.column_stack((-1.2 * np.arange(frames) / FPS, np.zeros(frames), np.full(frames, 0.9)))
+    walk[:, 2] += 0.02 * np.sin(2 * np.pi * 2.0 * np.arange(frames) / FPS)  # the stride's bob
+    assert unsettled_start(_motion(walk))[0] == 0
+    jolted = walk.copy()
+    jolted[:5, 0] += [0.6, 0.2, 0.55, 0.1, 0.3]  # a half-hidden body, read five ways
+    cut, change = unsettled_start(_motion(jolted))
+    assert change > START_DV_M_S and cut == 6  # up to the last jolt (frame 5's velocity against frame 4's), inclusive
+    assert unsettled_start(_motion(jolted[cut:]))[0] == 0
