@@ -19,6 +19,7 @@ flags. Rerunning resumes the trainings (`--out-dir` keeps them).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -71,6 +72,8 @@ def main(argv=None) -> int:
     parser.add_argument("--torch-threads", type=int, default=1)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--gamma", type=float, default=None, help="PPO discount of the windows' trainings (default: the scene fit's, windows.WINDOW_GAMMA)")
+    parser.add_argument("--path-weight", type=float, default=None, help="weight of the root-path cue (default: the moving pipeline's, "
+                        "services/scene_fit/budget.py; 0: 002's tracking alone)")
     parser.add_argument("--out-dir", default="runs/scene_fit_box", help="the windows' run directories (kept: a rerun resumes)")
     parser.add_argument("--result", default=str(HERE / "results" / "scene_fit.json"))
     args = parser.parse_args(argv)
@@ -79,6 +82,7 @@ def main(argv=None) -> int:
     from actors.motion.formats.io import load_motion
     from learner.atomic_io import atomic_write_json
     from services.scene_fit import scene_contract
+    from services.scene_fit.budget import PATH_WEIGHT
     from services.scene_fit.final_rollout import final_rollout
     from services.scene_fit.fit_tasks import window_terms
     from services.scene_fit.stage import run_scene_fit
@@ -90,6 +94,8 @@ def main(argv=None) -> int:
                        samples=args.samples, seed=args.seed, runner=args.runner, torch_threads=args.torch_threads,
                        eval_every=0, curriculum_samples=max(1, args.samples // 2))
     base.env = scene_contract.movingcam_env(EnvConfig(), args.scene)
+    path_weight = PATH_WEIGHT if args.path_weight is None else args.path_weight
+    base.env = dataclasses.replace(base.env, movingcam=dataclasses.replace(base.env.movingcam, path_weight=path_weight))
     base.ppo.gamma = WINDOW_GAMMA if args.gamma is None else args.gamma
     outcome = run_scene_fit(args.motion, args.scene, Path(args.out_dir), base, progress=False)
     clip = load_motion(args.motion)
@@ -104,6 +110,7 @@ def main(argv=None) -> int:
     record = {
         "what": "002 §5.3 box check: one box, fitted [along, height] (m) against the truth; Table 2 in spirit",
         "motion": args.motion, "scene": args.scene, "samples_per_window": args.samples, "init": args.init, "gamma": base.ppo.gamma,
+        "path_weight": path_weight,
         "workers": args.workers, "envs_per_worker": args.envs_per_worker, "windows": len(summary["windows"]),
         "truth": truth.tolist(), "initial_guess": guess.tolist(), "fitted": fitted.tolist(),
         "error_initial_m": np.abs(guess - truth).tolist(), "error_fitted_m": np.abs(fitted - truth).tolist(),
