@@ -98,7 +98,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--video", default=None, help="a video file (default: the Sports2D park walk, fetched and checked)")
     parser.add_argument("--work", default="runs/video_encodings", help="the encodings and their motions")
-    parser.add_argument("--encodings", default=",".join(ENCODINGS))
+    parser.add_argument("--encodings", default=",".join(ENCODINGS), help="comma-separated; rows of others already in --out are kept")
     parser.add_argument("--out", default=str(RESULT))
     args = parser.parse_args(argv)
     video = Path(args.video) if args.video else fetch_public_video("sports2d_demo")
@@ -107,7 +107,8 @@ def main(argv=None) -> int:
     from services.pose.video import probe_video
 
     width = probe_video(video).width
-    rows = {}
+    out = Path(args.out)
+    rows = json.loads(out.read_text()).get("encodings", {}) if out.is_file() else {}  # other encodings' rows are kept
     for name in args.encodings.split(","):
         motion, lines, seconds = reconstruct(encode(video, name, work), work / f"{name}.npz")
         rows[name] = {**measure(motion, width), "lines": lines, "wall_s": round(seconds, 1)}

@@ -32,7 +32,8 @@ class VideoMotion:
 
 def video_motion(track, config, name: str, camera: str, source: str, use_ray: bool = True, say=None) -> VideoMotion:
     """The reconstruction of `track` (from `source`, a file name for error lines) with its extras;
-    `say` gets the line naming the stretch of frames kept when a long gap cut the track."""
+    `say` gets the lines naming the subject's frames the motion covers where that is not all of
+    them (a long gap cut or interpolated, a start left out); motion.npz keeps them (`subject_lines`)."""
     from services.contacts.estimator import track_contacts
     from services.contacts.video_extras import video_extras
     from services.pose.camera_path import camera_path, decide_camera
@@ -42,7 +43,14 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
     from services.reconstruction.root_free import make_root_free
     from services.reconstruction.root_path import root_path_extras
 
-    track = crop_to_seen(track, source, say)
+    said: list[str] = []  # the subject-frames lines, kept in motion.npz (and report.json) as well as said
+
+    def tell(line: str) -> None:
+        said.append(line)
+        if say is not None:
+            say(line)
+
+    track = crop_to_seen(track, source, tell)
     path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
     moving = decide_camera(camera, path, track.image_size[0], source)
     if moving:
@@ -59,14 +67,15 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
     if cut and len(track) - cut >= MIN_FRAMES_AFTER_CUT:  # a subject coming into view: start where the motion settles
         track = track_window(track, cut, len(track))
         path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
-        if say is not None:
-            say(f"subject frames: from frame {track.start_frame} (the first {cut} frames, {cut / float(track.fps):.2f} s, "
-                f"are left out: the root's velocity changes by {jolt:.1f} m/s from one frame to the next there, as a "
-                "body half in view is read); --frames A:B chooses others")
+        tell(f"subject frames: from frame {track.start_frame} (the first {cut} frames, {cut / float(track.fps):.2f} s, "
+             f"are left out: the root's velocity changes by {jolt:.1f} m/s from one frame to the next there, as a "
+             "body half in view is read); --frames A:B chooses others")
         motion = reconstruct(track, config, name, track_contacts)
         motion.extras.update(video_extras(track, path, moving))
         motion, check = check_reference(motion, motion.extras.get("contacts"))
     motion.extras["reference_check"] = np.array(check.line)
+    if said:
+        motion.extras["subject_lines"] = np.array(said)
     return VideoMotion(motion, track, path, moving, check.line)
 
 

@@ -3,7 +3,9 @@
 Keys (lengths in metres, speeds in m/s, times in seconds, image errors in pixels):
 
 - outcome: one line, `completed: ...` or `fell at T s: first cause found: ...` (`outcome.py`);
-  reference_check: the reconstruction's reference check line (`reconstruction/plausibility.py`).
+  reference_check: the reconstruction's reference check line (`reconstruction/plausibility.py`);
+  subject_frames: the lines saying which of the subject's frames the motion covers, where that is
+  not simply all it was seen in (a long gap cut or interpolated, a start left out; None when none).
 
 - fell, fell_at_s (None when upright to the end), diverged: the strict fall rule of `sfv eval`;
   normalized_return: that rule's return over the most the clip could earn.
@@ -98,6 +100,7 @@ def build_report(rollout: FirstFrameRollout, humanoid, reconstruction: Reference
     report = {
         "outcome": outcome_line(rollout, reconstruction, video_rows(reconstruction, times), ref),
         "reference_check": str(reconstruction.extras.get("reference_check", "")) or None,
+        "subject_frames": [str(line) for line in np.atleast_1d(reconstruction.extras.get("subject_lines", []))] or None,
         "fell": rollout.fell,
         "fell_at_s": None if rollout.fell_at_s is None else round(rollout.fell_at_s, 3),
         "diverged": rollout.diverged,

@@ -43,3 +43,22 @@ def test_a_moving_camera_keeps_the_contacts_as_cues_without_fitting_them(track):
     names = list(extras["final_loss_names"])
     assert extras["final_losses"][names.index("contact")] == 0.0
     assert np.allclose(made.motion.root_pos[:, :2], made.motion.root_pos[0, :2])
+
+
+def test_a_start_read_from_a_half_hidden_body_is_left_out_and_said():
+    """The first four frames' keypoints shrunk and thrown about (a body stepping out from behind
+    a tree): the motion starts after them, reconstructed again, and says so."""
+    clean = make_clip(frames=45, seed=1).track
+    keypoints = clean.keypoints2d.copy()
+    centre = keypoints[:4].mean(axis=1, keepdims=True)
+    shrink = np.array([0.4, 0.7, 0.35, 0.6])[:, None, None]
+    thrown = np.array([[120, -60], [-100, 40], [140, 30], [-60, -80]])[:, None, :]
+    keypoints[:4] = centre + (keypoints[:4] - centre) * shrink + thrown
+    lines = []
+    made = video_motion(dataclasses.replace(clean, keypoints2d=keypoints.astype(clean.keypoints2d.dtype)), FAST, "clip",
+                        "static", "clip.mp4", use_ray=False, say=lines.append)
+    assert int(made.motion.extras["video_start_frame"]) == 4 and made.motion.num_frames == 41
+    assert len(lines) == 1 and lines[0].startswith("subject frames: from frame 4 (the first 4 frames")
+    assert list(made.motion.extras["subject_lines"]) == lines
+    untouched = video_motion(clean, FAST, "clip", "static", "clip.mp4", use_ray=False)
+    assert untouched.motion.num_frames == 45 and "subject_lines" not in untouched.motion.extras
