@@ -264,11 +264,13 @@ def crop_to_seen(track: PoseTrack, source: str, say=None) -> PoseTrack:
     missing from most of it."""
     max_gap = max(1, int(round(MAX_GAP_S * float(track.fps))))
     stretches = seen_stretches(track.valid, max_gap, lambda a, b: coasts_across(track, a, b))
+    if stretches and _mostly_missing(track, _longest(track, stretches)):  # coasting would make it mostly guessed
+        stretches = seen_stretches(track.valid, max_gap)
     if not stretches or int(track.valid.sum()) < 2:
         seen_count = int(track.valid.sum())
         raise SfvError(f"{source}: the subject (person {track.person_id}) is seen in {seen_count} frame(s); "
                        "a motion needs at least 2")
-    first, stop = max(stretches, key=lambda s: (int(track.valid[s[0]:s[1]].sum()), -s[0]))
+    first, stop = _longest(track, stretches)
     if (stop - first) < 2:
         raise SfvError(f"{source}: the subject (person {track.person_id}) is seen for at most 1 frame in a row "
                        f"(gaps over {MAX_GAP_S:g} s cut the track); a motion needs at least 2")
@@ -280,12 +282,21 @@ def crop_to_seen(track: PoseTrack, source: str, say=None) -> PoseTrack:
         say("subject gaps interpolated: person " + str(track.person_id) + " is unseen for "
             + ", ".join(f"{(b - a) / fps:.2f} s from frame {base + a}" for a, b in coasted)
             + f" (over {MAX_GAP_S:g} s, but moving on across it as before it)")
-    seen_count = int(track.valid[first:stop].sum())
-    missing = (stop - first) - seen_count
-    if missing > MAX_MISSING_FRACTION * (stop - first):
+    if _mostly_missing(track, (first, stop)):
+        missing = (stop - first) - int(track.valid[first:stop].sum())
         raise SfvError(f"{source}: the subject (person {track.person_id}) is lost in {missing} of the {stop - first} "
                        f"frames it spans; choose --frames or another --person (see `sfv pose --people`)")
     return track_window(track, first, stop)
+
+
+def _longest(track: PoseTrack, stretches: list[tuple[int, int]]) -> tuple[int, int]:
+    """The stretch with the most seen frames (the earlier one on a tie)."""
+    return max(stretches, key=lambda s: (int(track.valid[s[0]:s[1]].sum()), -s[0]))
+
+
+def _mostly_missing(track: PoseTrack, stretch: tuple[int, int]) -> bool:
+    first, stop = stretch
+    return (stop - first) - int(track.valid[first:stop].sum()) > MAX_MISSING_FRACTION * (stop - first)
 
 
 def track_window(track: PoseTrack, first: int, stop: int) -> PoseTrack:

@@ -269,3 +269,12 @@ def test_a_walker_hidden_longer_than_a_second_who_moves_on_as_before_is_interpol
         assert (cropped.start_frame, len(cropped)) == (95, 55) and lines[0].startswith("subject frames: 95-149")
     # Beyond the identity join's reach (3 s) a gap is never interpolated.
     assert len(crop_to_seen(_walker_track(250, slice(50, 150)), "pole.mp4")) == 100
+
+
+def test_coasting_never_makes_a_motion_that_is_mostly_guessed():
+    """Hidden 1.83 s of a 3-s clip: joined, more than half of it would be interpolated, so the
+    gap cuts the track as it did before coasting (the longer seen stretch is kept)."""
+    lines = []
+    cropped = crop_to_seen(_walker_track(90, slice(20, 75)), "pole.mp4", lines.append)
+    assert (cropped.start_frame, len(cropped), cropped.filled_frames) == (0, 20, 0)
+    assert len(lines) == 1 and lines[0].startswith("subject frames: 0-19 (person 6 is unseen for 1.8 s from frame 20")
