@@ -50,14 +50,23 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
         if say is not None:
             say(line)
 
+    reconstruct = reconstruct_on_ray if use_ray else reconstruct_track
+
+    def path_of(track):
+        return None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
+
+    def reconstructed(track, path):
+        """The track's motion with the video's extras."""
+        motion = reconstruct(track, config, name, track_contacts)
+        motion.extras.update(video_extras(track, path, moving))
+        return motion
+
     track = crop_to_seen(track, source, tell)
-    path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
+    path = path_of(track)
     moving = decide_camera(camera, path, track.image_size[0], source)
     if moving:
         config = dataclasses.replace(config, w_contact=0.0, w_slide=0.0)
-    reconstruct = reconstruct_on_ray if use_ray else reconstruct_track
-    motion = reconstruct(track, config, name, track_contacts)
-    motion.extras.update(video_extras(track, path, moving))
+    motion = reconstructed(track, path)
     if moving:
         free = make_root_free(motion)
         free.extras.update(root_path_extras(free))  # the path the contacts give (root_path.py)
@@ -66,12 +75,11 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
     cut, jolt = unsettled_start(motion)
     if cut and len(track) - cut >= MIN_FRAMES_AFTER_CUT:  # a subject coming into view: start where the motion settles
         track = track_window(track, cut, len(track))
-        path = None if track.camera_homography is None else camera_path(track.camera_homography, track.image_size)
+        path = path_of(track)
         tell(f"subject frames: from frame {track.start_frame} (the first {cut} frames, {cut / float(track.fps):.2f} s, "
              f"are left out: the root's velocity changes by {jolt:.1f} m/s from one frame to the next there, as a "
              "body half in view is read); --frames A:B chooses others")
-        motion = reconstruct(track, config, name, track_contacts)
-        motion.extras.update(video_extras(track, path, moving))
+        motion = reconstructed(track, path)
         motion, check = check_reference(motion, motion.extras.get("contacts"))
     motion.extras["reference_check"] = np.array(check.line)
     if said:

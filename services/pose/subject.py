@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from learner.errors import SfvError
-from services.pose.activity import person_activity
+from services.pose.activity import HIPS, MIN_CONFIDENCE, person_activity
 from services.pose.people_chunk import PeopleRows
 from services.pose.track import PoseTrack, fill_gaps
 
@@ -182,20 +182,19 @@ MAX_GAP_S = 1.0
 # seen in at least COAST_MIN_SEEN frames within COAST_WINDOW_S on each side, the hip centre
 # reappears within COAST_TOLERANCE body heights of where its image velocity on the two sides
 # (their mean) takes it, and its size changes by less than COAST_SIZE_RATIO. Measured on the park
-# walk behind a 300-px pole (`bench/scripts/video_encodings.py`, `pole`): hidden 1.07 s, 0.17 body
+# walk behind a 300-px pole (`bench/scripts/video_encodings.py`, `pole`): hidden 1.03 s, 0.17 body
 # heights off the line, so she is joined (before: the motion covered 69 of her frames); the man on
 # the box is seen once after his 1.5-s gap, at 1.8 times his size, and stays cut.
 MAX_COASTED_GAP_S = 3.0
 COAST_WINDOW_S, COAST_MIN_SEEN = 0.5, 5
 COAST_TOLERANCE, COAST_SIZE_RATIO = 0.3, 1.25
-HIP_LANDMARKS = (23, 24)  # BlazePose's left and right hip
 
 
 def _body_height_px(track: PoseTrack, frames: np.ndarray) -> float:
     """Median vertical extent of the confident keypoints over `frames` (0 when nothing is known)."""
     heights = []
     for frame in frames:
-        confident = track.confidence[frame] > 0.5
+        confident = track.confidence[frame] >= MIN_CONFIDENCE
         points = track.keypoints2d[frame][confident] if confident.sum() >= 4 else track.keypoints2d[frame]
         heights.append(float(np.ptp(points[:, 1])))
     return float(np.median(heights)) if heights else 0.0
@@ -221,7 +220,7 @@ def coasts_across(track: PoseTrack, last_seen: int, next_seen: int) -> bool:
     sizes = (_body_height_px(track, before), _body_height_px(track, after))
     if min(sizes) <= 0.0 or max(sizes) / min(sizes) > COAST_SIZE_RATIO:
         return False
-    hips = track.keypoints2d[:, HIP_LANDMARKS].astype(np.float64).mean(axis=1)
+    hips = track.keypoints2d[:, HIPS].astype(np.float64).mean(axis=1)
     velocity = (_image_velocity(hips, before) + _image_velocity(hips, after)) / 2
     miss = hips[next_seen] - hips[last_seen] - velocity * (next_seen - last_seen)
     return bool(np.linalg.norm(miss) <= COAST_TOLERANCE * max(sizes))

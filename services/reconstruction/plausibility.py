@@ -131,12 +131,12 @@ def check_reference(motion, contacts: np.ndarray | None = None):
     REPAIR_PASSES times: a run of wrong frames at the clip's start makes its own local median,
     so only its worst steps are flagged at first (the park walk behind a pole: 31 m/s flagged,
     the four steps before it at 6.8-8.1 m/s left, and the controller would start at 7 m/s)."""
-    checked, check, flagged, found = _check_once(motion, contacts)
-    if not flagged.any() or check.repaired_frames.size == 0:
+    checked, check, found = _check_once(motion, contacts)
+    if check.repaired_frames.size == 0:
         return checked, check
     frames = set(check.repaired_frames.tolist())
     for _ in range(REPAIR_PASSES - 1):
-        again, more, _, _ = _check_once(checked, contacts)
+        again, more, _ = _check_once(checked, contacts)
         if more.repaired_frames.size == 0:
             break
         checked = again
@@ -173,7 +173,7 @@ def unsettled_start(motion) -> tuple[int, float]:
 
 
 def _check_once(motion, contacts):
-    """(motion repaired or as is, ReferenceCheck, flagged steps (T-1,), the line's finding)."""
+    """(motion repaired or as is, ReferenceCheck, the line's finding: "" when nothing is flagged)."""
     fps = float(motion.fps)
     flags = flag_steps(motion.root_pos, fps, contacts)
     flagged = np.logical_or.reduce(list(flags.values()))
@@ -181,7 +181,7 @@ def _check_once(motion, contacts):
     if not flagged.any():
         return motion, ReferenceCheck(np.zeros(0, int), np.zeros(0, int), f"reference check: the root moves at "
                                       f"{np.median(speed):.2f} m/s (median), at most {speed.max():.2f} m/s between frames; "
-                                      "nothing to repair"), flagged, ""
+                                      "nothing to repair"), ""
     bad = bad_frames(flagged)
     steps = np.flatnonzero(flagged)
     worst = int(steps[np.argmax(speed[steps])])
@@ -189,8 +189,7 @@ def _check_once(motion, contacts):
     found = (f"reference check: the root moves {speed[worst]:.1f} m/s between frames {worst} and {worst + 1} "
              f"(clip median {np.median(speed):.2f} m/s; {len(steps)} step(s) flagged: {rules})")
     if not bad.any():
-        return motion, ReferenceCheck(steps, np.zeros(0, int), found + "; no plausible frame to repair from, left as is"), \
-            flagged, found
+        return motion, ReferenceCheck(steps, np.zeros(0, int), found + "; no plausible frame to repair from, left as is"), found
     fixed = repaired_root(motion.root_pos, bad, fps)
     if "keypoints3d" in motion.extras:
         fixed = grounded_heights(fixed, motion.root_pos, np.asarray(motion.extras["keypoints3d"]), bad)
@@ -203,7 +202,7 @@ def _check_once(motion, contacts):
     frames = np.flatnonzero(bad)
     after = root_speeds(fixed, fps).max()
     return repaired, ReferenceCheck(steps, frames, found + f"; repaired the root in frames {_ranges(frames)} "
-                                    f"(now at most {after:.2f} m/s)"), flagged, found
+                                    f"(now at most {after:.2f} m/s)"), found
 
 
 def _ranges(frames: np.ndarray) -> str:

@@ -109,7 +109,8 @@ class ProcessRunner(WorkerRunner):
         self._pending: dict[int, float] = {}  # the asynchronous interface: worker index -> share sent at
 
     def _replace(self, index: int, cause: WorkerProcessDied) -> None:
-        """A fresh process for worker `index`, built and ready."""
+        """Worker `index` lost its share to `cause`: counted, and a fresh process built and ready."""
+        self.faults.failures += 1
         self.faults.restarts += 1
         log.warning("rollout %s; started again", cause)
         self.workers[index].close()
@@ -135,7 +136,6 @@ class ProcessRunner(WorkerRunner):
                     losses[index] += 1
                     if losses[index] == 3:  # not a transient fault
                         raise SfvError(f"rollout worker {index}: its process died 3 times on one share, giving up ({outcome})")
-                    self.faults.failures += 1
                     self._replace(index, outcome)
                     self.workers[index].conn.send(request)
                     sent[index] = time.monotonic()
@@ -177,7 +177,6 @@ class ProcessRunner(WorkerRunner):
         while self._pending and not done:
             for index, outcome in self._wait(self._pending, timeout):
                 if isinstance(outcome, WorkerProcessDied):
-                    self.faults.failures += 1
                     self._replace(index, outcome)
                     done.append((index, None))
                 else:
