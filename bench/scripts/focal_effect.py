@@ -132,6 +132,15 @@ def camera_runs(runs: Path, videos: Path) -> list[tuple[Path, Path]]:
     return found
 
 
+def calibrated_runs(runs: Path, shared: Path, script: str) -> list[tuple[Path, Path]]:
+    """`camera_runs` under RUNS with their videos in SHARED/data/video; says why on stderr when none."""
+    found = camera_runs(runs, shared / "data" / "video")
+    if not found:
+        print(f"{script}: no RUNS/<trial>_camNN/track.npz under {runs} with its video in {shared / 'data' / 'video'}",
+              file=sys.stderr)
+    return found
+
+
 def camera_result(run: Path, video: Path, iterations: int | None) -> dict:
     from actors.motion.formats.io import load_motion
     from services.bench.videos_truth import CALIBRATION, camera_key
@@ -189,10 +198,8 @@ def main(argv: list[str] | None = None) -> int:
     from learner.atomic_io import atomic_write_json
 
     torch.set_num_threads(args.threads)
-    found = camera_runs(args.runs, args.shared / "data" / "video")
+    found = calibrated_runs(args.runs, args.shared, "focal_effect")
     if not found:
-        print(f"focal_effect: no RUNS/<trial>_camNN/track.npz under {args.runs} with its video in "
-              f"{args.shared / 'data' / 'video'}", file=sys.stderr)
         return 2
     cameras = {f"{run.name}": camera_result(run, video, args.iterations) for run, video in found}
     print(markdown(cameras))

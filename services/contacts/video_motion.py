@@ -39,7 +39,7 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
     from services.pose.camera_path import camera_path, decide_camera
     from services.pose.subject import crop_to_seen, track_window
     from services.reconstruction import reconstruct_on_ray, reconstruct_track
-    from services.reconstruction.plausibility import check_reference, unsettled_start
+    from services.reconstruction.plausibility import check_reference, unsettled_end, unsettled_start
     from services.reconstruction.root_free import make_root_free
     from services.reconstruction.root_path import root_path_extras
 
@@ -71,14 +71,16 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
         free = make_root_free(motion)
         free.extras.update(root_path_extras(free))  # the path the contacts give (root_path.py)
         return VideoMotion(free, track, path, moving)
+    # The ends are judged before the check repairs the root: the repair re-places a thrown frame's
+    # root and keeps its pose, which is wrong with it (half a body read whole).
+    (cut, jolt), (tail, tail_jolt) = unsettled_start(motion), unsettled_end(motion)
     motion, check = check_reference(motion, motion.extras.get("contacts"))
-    cut, jolt = unsettled_start(motion)
-    if cut and len(track) - cut >= MIN_FRAMES_AFTER_CUT:  # a subject coming into view: start where the motion settles
-        track = track_window(track, cut, len(track))
+    if (cut or tail) and len(track) - cut - tail >= MIN_FRAMES_AFTER_CUT:
+        # a subject coming into view or leaving it: keep the frames where the motion is settled
+        track = track_window(track, cut, len(track) - tail)
         path = path_of(track)
-        tell(f"subject frames: from frame {track.start_frame} (the first {cut} frames, {cut / float(track.fps):.2f} s, "
-             f"are left out: the root's velocity changes by {jolt:.1f} m/s from one frame to the next there, as a "
-             "body half in view is read); --frames A:B chooses others")
+        tell(f"subject frames: {_left_out(track, cut, tail, max(jolt if cut else 0.0, tail_jolt if tail else 0.0))}; "
+             "--frames A:B chooses others")
         motion = reconstructed(track, path)
         motion, check = check_reference(motion, motion.extras.get("contacts"))
     motion.extras["reference_check"] = np.array(check.line)
@@ -88,3 +90,12 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
 
 
 MIN_FRAMES_AFTER_CUT = 30  # a second at 30 fps: a shorter motion is no clip to learn from
+
+
+def _left_out(track, cut: int, tail: int, jolt: float) -> str:
+    """What the cut leaves out, said in words: the first and/or the last frames, and why."""
+    fps = float(track.fps)
+    parts = [f"the first {cut} ({cut / fps:.2f} s)"] if cut else []
+    parts += [f"the last {tail} ({tail / fps:.2f} s)"] if tail else []
+    return (f"frames {track.start_frame}-{track.start_frame + len(track) - 1} ({' and '.join(parts)} are left out: the "
+            f"root's velocity changes by up to {jolt:.1f} m/s from one frame to the next there, as a body half in view is read)")

@@ -42,6 +42,7 @@ LINK_COM_OFFSETS = np.stack([yup_to_zup(link.geom_offset_yup) for link in LINKS]
 LINK_MASS_FRACTIONS = np.array([link.mass for link in LINKS]) / TOTAL_MASS  # (15,), sums to 1
 # The 8 corners of the foot box in the ankle frame: the lowest of them is the foot's lowest point.
 FOOT_CORNERS = FOOT_CENTRE + FOOT_HALF * np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+SOLE_CORNERS = np.array([i for i, corner in enumerate(FOOT_CORNERS) if corner[2] < FOOT_CENTRE[2]])  # the box's bottom face
 
 
 @dataclass

@@ -72,6 +72,87 @@ def estimate_up(points3d: np.ndarray, valid: np.ndarray, use_body: bool, min_con
     return mean / np.linalg.norm(mean)
 
 
+# Up from balance (`balance_up`): at least this many frames with a foot down, a mean unit
+# support-to-centre-of-mass direction at least this long (the directions agree), and at most this
+# far from the body's up (further means the contacts or the fit are wrong, not the up). A turn of
+# less than MIN_BALANCE_TURN_DEG is within what sway leaves in the estimate (the synthetic one-leg
+# stand's: 1.0 degree off the truth), and the body's up stays.
+MIN_BALANCE_FRAMES = 10
+MIN_BALANCE_CONSISTENCY = 0.9
+MIN_BALANCE_TURN_DEG = 2.0
+MAX_BALANCE_TURN_DEG = 30.0
+
+
+def balance_up(com: np.ndarray, soles: np.ndarray, contacts: np.ndarray, seen: np.ndarray,
+               body_up: np.ndarray) -> np.ndarray | None:
+    """World up (in the frame of the inputs) from balance: the mean unit direction from the support
+    (the mean sole centre of the feet down) to the centre of mass over the frames a foot is down.
+
+    A person on the ground holds their centre of mass over their support, so that direction is
+    gravity's, up to the sway of a step, which averages out over a stance or a gait cycle. The
+    body's ankle-to-shoulder axis (`estimate_up`) is not: a leg lifted to the side or held back,
+    a lean, and the 3D predictor's own tilt put it 8-17 degrees off the calibrated vertical on the
+    eight Pose2Sim cameras (mean 12.7), and a reference that leans that far from its support is
+    one no body can follow. `com` (T, 3), `soles` (T, 2, 3), `contacts` (T, 2) bool, `seen` (T,)
+    bool; None when too few frames, directions that disagree, or a turn from `body_up` under
+    MIN_BALANCE_TURN_DEG or over MAX_BALANCE_TURN_DEG (then the body's up stays).
+    """
+    down = np.asarray(contacts, bool) & np.asarray(seen, bool)[:, None]
+    frames = down.any(axis=1)
+    if frames.sum() < MIN_BALANCE_FRAMES:
+        return None
+    weights = down[frames].astype(np.float64)
+    support = (soles[frames] * weights[..., None]).sum(axis=1) / weights.sum(axis=1, keepdims=True)
+    direction = com[frames] - support
+    direction /= np.maximum(np.linalg.norm(direction, axis=-1, keepdims=True), 1e-9)
+    mean = direction.mean(axis=0)
+    if np.linalg.norm(mean) < MIN_BALANCE_CONSISTENCY:
+        return None
+    up = mean / np.linalg.norm(mean)
+    body = body_up / np.linalg.norm(body_up)
+    turn = np.degrees(np.arccos(np.clip(up @ body, -1.0, 1.0)))
+    if not MIN_BALANCE_TURN_DEG <= turn <= MAX_BALANCE_TURN_DEG:
+        return None
+    return up
+
+
+# Level along the travel (`travel_direction`, `level_along`): a root path whose main direction spans
+# at least MIN_TRAVEL_M, at least MIN_TRAVEL_TILT_DEG from the up (a path that rises more steeply is a
+# jump or a climb, not a walk), turning the up by at most MAX_LEVEL_TURN_DEG.
+MIN_TRAVEL_M = 1.0
+MIN_TRAVEL_TILT_DEG = 60.0
+MAX_LEVEL_TURN_DEG = 20.0
+
+
+def travel_direction(path: np.ndarray, seen: np.ndarray) -> np.ndarray | None:
+    """The unit main direction of a root path (T, 3) over its seen frames (the first principal axis),
+    or None when it spans less than MIN_TRAVEL_M (someone who stays in place)."""
+    points = np.asarray(path, np.float64)[np.asarray(seen, bool)]
+    if len(points) < 2:
+        return None
+    centred = points - points.mean(axis=0)
+    axis = np.linalg.svd(centred, full_matrices=False)[2][0]
+    along = centred @ axis
+    return axis if along.max() - along.min() >= MIN_TRAVEL_M else None
+
+
+def level_along(up: np.ndarray, along: np.ndarray) -> np.ndarray:
+    """`up` turned to be perpendicular to the travel direction `along`: a person who walks or runs
+    metres does so on level ground, so the root's path is horizontal. The body's axis leans with
+    the gait (a runner forward), and the ground it implies tilts along the path: a run across 3 m
+    of a side view rose 0.44 m from its first frame to its last. Unchanged when the path rises
+    steeply (a jump, MIN_TRAVEL_TILT_DEG) or the turn would exceed MAX_LEVEL_TURN_DEG."""
+    up = up / np.linalg.norm(up)
+    along = along / np.linalg.norm(along)
+    if np.degrees(np.arccos(min(1.0, abs(float(up @ along))))) < MIN_TRAVEL_TILT_DEG:
+        return up
+    level = up - (up @ along) * along
+    level /= np.linalg.norm(level)
+    if np.degrees(np.arccos(np.clip(level @ up, -1.0, 1.0))) > MAX_LEVEL_TURN_DEG:
+        return up
+    return level
+
+
 def camera_rotation_from_up(up_cam: np.ndarray) -> np.ndarray:
     """World -> camera rotation whose world z is `up_cam` and whose world x is the image's x
     axis made perpendicular to up (the camera's x axis then has no world-y component)."""

@@ -10,6 +10,12 @@ class ReconstructionConfig:
     w_2d: float = field(default=10.0, metadata={"help": "weight of the 2D reprojection loss (paper: 10)"})
     w_3d: float = field(default=100.0, metadata={"help": "weight of the 3D-prediction rotation loss (paper: 100)"})
     w_smooth: float = field(default=25.0, metadata={"help": "weight of the joint-position smoothness loss (paper: 25)"})
+    smoothness: str = field(default="body", metadata={"choices": ("body", "displacement", "acceleration"), "help":
+        "what the smoothness loss charges (services/reconstruction/losses.py smoothness): body, the joints' "
+        "displacement about the hips as SFV's l_sm and the hips' travel only where it changes; displacement, "
+        "SFV's l_sm as printed, which charges travel itself (a 3 m side-view run came out 1.2 m short, 28 px "
+        "of reprojection against 10 with body; the eight Pose2Sim cameras: PA-MPJPE 85.8 against 85.7 mm, "
+        "acceleration error 50.6 against 48.6); acceleration, each joint's change of displacement"})
     image_unit: float = field(default=1e-3, metadata={
         "help": "unit of the 2D residuals in l2D and delta_t, as a fraction of the image height (per mille): the "
                 "paper's pixel units made independent of the video's resolution"})
@@ -54,6 +60,14 @@ class ReconstructionConfig:
     up_from_body: bool = field(default=True, metadata={
         "help": "estimate the ground's up direction from the mean ankle-to-shoulder axis of the 3D prediction when "
                 "the person is upright most of the clip; otherwise assume a level camera (image up = world up)"})
+    up_from_balance: bool = field(default=True, metadata={
+        "help": "with contacts, turn the body's up to the mean direction from the feet down to the centre of mass "
+                "(a person on the ground stands over their support): 6.7 against 12.7 degrees from the calibrated "
+                "vertical, mean over the eight Pose2Sim cameras (services/reconstruction/camera.py balance_up)"})
+    level_travel: bool = field(default=True, metadata={
+        "help": "when the root's path spans at least 1 m, make the up perpendicular to its main direction (people "
+                "walk and run on level ground; the body's lean tilts the ground along the path: a side-view run "
+                "across 3 m rose 0.44 m) (services/reconstruction/camera.py level_along)"})
     min_upright_consistency: float = field(default=0.8, metadata={
         "help": "length of the mean unit body axis above which the person counts as upright for up_from_body"})
     # --- left/right label flips
@@ -65,3 +79,9 @@ class ReconstructionConfig:
                 "(fraction of the person's height); small, so that a wrong reading held for many frames is still "
                 "undone when its start and end are visible jumps"})
     dtype: str = field(default="float64", metadata={"help": "torch dtype of the optimisation (float32 or float64)"})
+
+    def __post_init__(self):
+        from services.reconstruction.losses import SMOOTHNESS_MODES
+
+        if self.smoothness not in SMOOTHNESS_MODES:
+            raise ValueError(f"smoothness must be one of {', '.join(SMOOTHNESS_MODES)}, got {self.smoothness!r}")

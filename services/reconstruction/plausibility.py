@@ -162,8 +162,21 @@ def unsettled_start(motion) -> tuple[int, float]:
     """(frames to leave out at the clip's start, the largest velocity change there in m/s): up to
     and including the last frame within START_S at which the root's velocity changes by more than
     START_DV_M_S; (0, that change) when none does."""
-    fps = float(motion.fps)
-    velocity = np.diff(motion.root_pos, axis=0) * fps
+    return _unsettled_head(np.asarray(motion.root_pos), float(motion.fps))
+
+
+def unsettled_end(motion) -> tuple[int, float]:
+    """The same at the clip's end, a subject leaving the view: (frames to leave out at the end, the
+    largest velocity change within START_S of it). Measured on the reconstructions before the
+    check's repair (`video_motion` judges both ends there): a walker leaving a plain-walled room at
+    the frame's edge, 164.9 m/s (9 frames cut; the repair alone left 43 m/s); Pose2Sim two-people
+    cam03's man where he passes behind the woman, 12.6 m/s (24 frames); the other development
+    videos at most 3.7 (balancing cam02, two-people cam02)."""
+    return _unsettled_head(np.asarray(motion.root_pos)[::-1], float(motion.fps))
+
+
+def _unsettled_head(root_pos: np.ndarray, fps: float) -> tuple[int, float]:
+    velocity = np.diff(root_pos, axis=0) * fps
     change = np.linalg.norm(np.diff(velocity, axis=0), axis=1)  # change[k]: at frame k + 1
     head = change[:max(1, int(round(START_S * fps)))]
     if head.size == 0:

@@ -36,13 +36,16 @@ import torch
 from actors.character import quaternion as qn
 from actors.motion.reference_motion import ReferenceMotion
 from learner.errors import SfvError
-from services.reconstruction.body import PoseParams, body_points
+from services.reconstruction.body import SOLE_CORNERS, PoseParams, body_points
 from services.reconstruction.camera import (
     PinholeCamera,
+    balance_up,
     camera_rotation_from_up,
     default_focal,
     estimate_up,
     fit_translations,
+    level_along,
+    travel_direction,
 )
 from services.reconstruction.config import ReconstructionConfig
 from services.reconstruction.contact_fit import ground_parameter, initial_ground, lift_out_of_ground
@@ -70,6 +73,7 @@ from services.reconstruction.losses import (
 
 CONTACT_FEET = ("right", "left")  # the order of the feet in contact arrays, as `body.FOOT_LINKS`
 LOSS_NAMES = ("l2d", "l3d", "lsm", "ground", "contact", "slide", "balance", "flat")
+HIP_POINTS = [fit_index("RHip"), fit_index("LHip")]  # their midpoint: the centre of the "body" smoothness
 # The sole points of the feet (CONTACT_FEET order) that span the balance term's support.
 HEEL_POINTS = [fit_index("RHeel"), fit_index("LHeel")]
 TOE_POINTS = [fit_index("RToe"), fit_index("LToe")]
@@ -108,22 +112,54 @@ def _poses(params: PoseParams, root_pos=None, with_com: bool = False):
     return body_points(root_pos, params.root_quat(), params.joint_quats(), with_com)
 
 
+def _camera_path(predicted: PoseParams, rotation: np.ndarray, obs: ObservedPoints, weights: np.ndarray, focal: float,
+                 principal: np.ndarray) -> np.ndarray:
+    """(T, 3) camera-frame root positions that place the fitted poses on the 2D keypoints."""
+    with torch.no_grad():
+        relative, _ = _poses(predicted)
+    return fit_translations(relative.double().numpy() @ rotation.T, obs.keypoints2d, weights, focal, principal)
+
+
+def world_rotation(obs: ObservedPoints, config: ReconstructionConfig, dtype: torch.dtype, contacts: np.ndarray | None,
+                   focal: float, principal: np.ndarray) -> tuple[np.ndarray, PoseParams]:
+    """The world -> camera rotation and the 3D prediction's poses fitted in its world. Its up is the
+    body's mean axis (`estimate_up`), turned to the support-to-centre-of-mass direction when feet
+    are down (`up_from_balance`), then levelled along a root path of a metre or more (`level_travel`)."""
+    up = estimate_up(obs.points3d, obs.valid, config.up_from_body, config.min_upright_consistency)
+    rotation = camera_rotation_from_up(up)
+    # Camera axes -> world axes is rotation^T; for row vectors p @ rotation.
+    predicted = fit_poses_to_points(obs.points3d @ rotation, config.ik_iterations, config.ik_lr, dtype)
+    if not config.up_from_body:
+        return rotation, predicted
+    turned = rotation[:, 2]
+    if config.up_from_balance and contacts is not None:
+        with torch.no_grad():
+            _, feet, com = _poses(predicted, with_com=True)
+        feet = feet.double().numpy()
+        balanced = balance_up(com.double().numpy(), feet[..., SOLE_CORNERS, :].mean(axis=-2), contacts, obs.valid,
+                              np.array([0.0, 0.0, 1.0]))
+        if balanced is not None:
+            turned = rotation @ balanced
+    if config.level_travel:
+        path = _camera_path(predicted, rotation, obs, obs.confidence * FIT_WEIGHTS, focal, principal)
+        along = travel_direction(path, obs.valid)
+        if along is not None:
+            turned = level_along(turned, along)
+    if turned @ rotation[:, 2] < np.cos(np.radians(0.1)):
+        rotation = camera_rotation_from_up(turned)
+        predicted = fit_poses_to_points(obs.points3d @ rotation, config.ik_iterations, config.ik_lr, dtype)
+    return rotation, predicted
+
+
 def initialise(obs: ObservedPoints, image_size: tuple[int, int], config: ReconstructionConfig,
                dtype: torch.dtype, contacts: np.ndarray | None = None) -> Setup:
     width, height = image_size
     focal = default_focal(image_size, config.focal_length_px)
     principal = np.array([(width - 1) / 2.0, (height - 1) / 2.0])
-    up = estimate_up(obs.points3d, obs.valid, config.up_from_body, config.min_upright_consistency)
-    rotation = camera_rotation_from_up(up)
-    camera = PinholeCamera(rotation, np.zeros(3), focal, principal, (int(width), int(height)))
-
-    # Camera axes -> world axes is rotation^T; for row vectors p @ rotation.
-    predicted = fit_poses_to_points(obs.points3d @ rotation, config.ik_iterations, config.ik_lr, dtype)
-    with torch.no_grad():
-        relative, _ = _poses(predicted)
-    relative = relative.double().numpy()
     weights = obs.confidence * FIT_WEIGHTS
-    translations = fit_translations(relative @ rotation.T, obs.keypoints2d, weights, focal, principal)
+    rotation, predicted = world_rotation(obs, config, dtype, contacts, focal, principal)
+    camera = PinholeCamera(rotation, np.zeros(3), focal, principal, (int(width), int(height)))
+    translations = _camera_path(predicted, rotation, obs, weights, focal, principal)
     with torch.no_grad():
         predicted.root_pos.copy_(torch.as_tensor(translations @ rotation, dtype=dtype))
         fit, corners = _poses(predicted)
@@ -156,7 +192,7 @@ def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed:
     terms = {
         "l2d": reprojection_l1(setup.camera.project_torch(fit), observed, weights, setup.px_to_unit).mean(),
         "l3d": prediction_consistency(rotations, predicted_rotations, frame_weights).mean(),
-        "lsm": smoothness(fit[:, :NUM_JOINT_KEYPOINTS], unit).sum() / frames,
+        "lsm": smoothness(fit[:, :NUM_JOINT_KEYPOINTS], unit, config.smoothness, fit[:, HIP_POINTS].mean(dim=1)).sum() / frames,
         "ground": ground_penetration(corners, unit, ground).mean(),
         "contact": torch.zeros((), dtype=fit.dtype),
         "slide": torch.zeros((), dtype=fit.dtype),

@@ -3,7 +3,8 @@ per-frame estimator added: ground truth for testing and benchmarking the reconst
 
 `make_clip`: the humanoid sways, bends its knees and swings its arms (every joint inside its
 limits, feet on or above the ground) while walking slowly past the camera.
-`make_standing_clip`: it stands on both feet while the estimator misreads one foot as lifted. Its fit points are
+`make_standing_clip`: it stands on both feet while the estimator misreads one foot as lifted.
+`make_one_leg_clip`: it balances on its right foot, the left leg out to the side. Its fit points are
 projected through the camera (2D keypoints, plus pixel noise) and expressed hip-centred in
 the camera's axes (the "3D prediction", plus per-frame noise in metres: the jitter the
 reconstruction should remove).
@@ -18,7 +19,7 @@ import torch
 from actors.character import quaternion as qn
 from actors.character.skeleton import JOINT_NAMES, REVOLUTE_JOINTS, SPHERICAL_JOINTS
 from services.pose.track import KEYPOINT_NAMES, PoseTrack
-from services.reconstruction.body import REVOLUTE_LIMITS, SPHERICAL_LIMITS, PoseParams, body_points
+from services.reconstruction.body import REVOLUTE_LIMITS, SOLE_CORNERS, SPHERICAL_LIMITS, PoseParams, body_points
 from services.reconstruction.camera import PinholeCamera, camera_rotation_from_up
 from services.reconstruction.keypoints import FIT_POINTS, NUM_JOINT_KEYPOINTS, fit_index
 
@@ -154,4 +155,44 @@ def make_standing_clip(frames: int = 30, fps: float = 30.0, image_size: tuple[in
         return landmarks
 
     track = _seen(fit, root_quat, joint_quats, camera, fps, pixel_noise, depth_noise_m, rng, misread)
+    return SyntheticClip(track, camera, fit[:, :NUM_JOINT_KEYPOINTS], root_pos, root_quat, joint_quats)
+
+
+def _one_leg_pose(steer: np.ndarray, left_hip_out: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rotation vectors (8, 3), hinges (4,) of a humanoid facing -y on its right leg, the right hip
+    turned by `steer` (about x, then y) and the right ankle back by as much (the sole stays level),
+    the left hip `left_hip_out` radians out to the side; and the gap (2,) from the right sole's
+    centre to the centre of mass, horizontally."""
+    spherical, revolute = np.zeros((8, 3)), np.zeros(4)
+    right_hip, right_ankle, left_hip = (list(SPHERICAL_JOINTS).index(JOINT_NAMES.index(n)) for n in ("right_hip", "right_ankle", "left_hip"))
+    spherical[right_hip, :2], spherical[right_ankle, :2] = steer, -steer
+    spherical[left_hip, 0] = left_hip_out
+    params = PoseParams.create(np.array([[0.0, 0.0, 1.0]]), qn.quat_from_axis_angle(np.array([[0.0, 0.0, -np.pi / 2]])),
+                               spherical[None], revolute[None])
+    with torch.no_grad():
+        _, corners, com = body_points(params.root_pos, params.root_quat(), params.joint_quats(), with_com=True)
+    sole = corners[0, 0, SOLE_CORNERS].mean(dim=0)
+    return spherical, revolute, (com[0, :2] - sole[:2]).numpy()
+
+
+def make_one_leg_clip(frames: int = 16, fps: float = 30.0, image_size: tuple[int, int] = (640, 480), focal: float = 600.0,
+                      left_hip_out: float = 0.5, pixel_noise: float = 1.0, depth_noise_m: float = 0.02,
+                      seed: int = 0) -> SyntheticClip:
+    """A person balancing on the right foot, the left leg held out to the side, facing the camera:
+    the centre of mass exactly over the right sole's centre (the right hip steered under it by
+    Newton steps), so the truth is a balance a body holds. The ankle-to-shoulder axis of this
+    pose leans towards the raised leg, as a real one-leg stand's does."""
+    rng = np.random.default_rng(seed)
+    steer = np.zeros(2)
+    for _ in range(6):  # the gap is near linear in the steer: a few Newton steps with a numeric Jacobian
+        spherical, revolute, gap = _one_leg_pose(steer, left_hip_out)
+        jacobian = np.stack([(_one_leg_pose(steer + 1e-4 * e, left_hip_out)[2] - gap) / 1e-4 for e in np.eye(2)], axis=1)
+        steer = steer - np.linalg.solve(jacobian, gap)
+    spherical, revolute, _ = _one_leg_pose(steer, left_hip_out)
+    root_quat = qn.quat_from_axis_angle(np.tile([0.0, 0.0, -np.pi / 2], (frames, 1)))
+    fit, root_pos, joint_quats, _ = _posed(np.tile([0.0, 0.0, 1.0], (frames, 1)), root_quat,
+                                           np.tile(spherical, (frames, 1, 1)), np.tile(revolute, (frames, 1)),
+                                           per_frame_ground=True)
+    camera = _standard_camera(image_size, focal)
+    track = _seen(fit, root_quat, joint_quats, camera, fps, pixel_noise, depth_noise_m, rng)
     return SyntheticClip(track, camera, fit[:, :NUM_JOINT_KEYPOINTS], root_pos, root_quat, joint_quats)

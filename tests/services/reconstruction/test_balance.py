@@ -1,5 +1,6 @@
 """The static-balance term (`losses.static_balance`): the whole-body centre of mass (`body.centre_of_mass`)
-over the support of the contact feet, beyond a margin."""
+over the support of the contact feet, beyond a margin; and the up direction taken from balance
+(`camera.balance_up`)."""
 import dataclasses
 
 import mujoco
@@ -11,9 +12,11 @@ from actors.character.humanoid import build_mjcf
 from actors.character.skeleton import LINK_NAMES
 from services.reconstruction import ReconstructionConfig, reconstruct_track
 from services.reconstruction.body import PoseParams, body_points, centre_of_mass, motion_centre_of_mass
-from services.reconstruction.keypoints import fit_index
+from services.reconstruction.camera import MAX_BALANCE_TURN_DEG, MIN_BALANCE_FRAMES, MIN_BALANCE_TURN_DEG, balance_up
+from services.reconstruction.keypoints import fit_index, observe
 from services.reconstruction.losses import static_balance, support_distance
-from services.reconstruction.synthetic import make_standing_clip
+from services.reconstruction.reconstruct import initialise
+from services.reconstruction.synthetic import make_one_leg_clip, make_standing_clip
 
 UNIT = 0.01
 MARGIN = 0.05
@@ -90,7 +93,9 @@ def test_a_centre_of_mass_off_the_single_contact_foot_is_pulled_over_it():
     assert after < MARGIN + 0.005 and float(after_loss.detach()) < 0.1 * float(balance_of(standing(), RIGHT_ONLY)[0].detach())
 
 
-FAST = ReconstructionConfig(iterations=100, ik_iterations=60, focal_length_px=600.0)
+# The term alone, on the up the body's axis gives (up from balance would already turn the world so
+# that the centre of mass stands over the one foot the estimator calls down).
+FAST = ReconstructionConfig(iterations=100, ik_iterations=60, focal_length_px=600.0, up_from_balance=False)
 
 
 def right_foot_down(track, label_flipped):
@@ -127,3 +132,57 @@ def test_the_reconstruction_moves_the_body_over_the_contact_foot(standing_clip):
     # is down, the fit leans over it at some 2D cost (measured: 9.7 -> 6.6 cm, 1.3 -> 1.8 px; the
     # default 50 gets 8.7 cm in these 100 iterations).
     assert com_to_right_foot(on) < com_to_right_foot(off) - 0.01
+
+
+# --------------------------------------------------------------------------- up from balance
+def up_error_deg(clip, up_from_balance: bool, contacts: np.ndarray) -> float:
+    """Angle between the reconstruction's up and the clip camera's true vertical (degrees)."""
+    obs = observe(clip.track)
+    config = dataclasses.replace(ReconstructionConfig(), up_from_balance=up_from_balance)
+    setup = initialise(obs, tuple(clip.track.image_size), config, torch.float64, contacts)
+    true_up = clip.camera.rotation @ np.array([0.0, 0.0, 1.0])
+    return float(np.degrees(np.arccos(np.clip(setup.camera.rotation[:, 2] @ true_up, -1.0, 1.0))))
+
+
+def test_up_from_balance_finds_the_vertical_of_a_one_leg_stand():
+    """On one leg with the other out to the side, the ankle-to-shoulder axis leans towards the raised
+    leg (12 degrees here; 8-17 on the Pose2Sim cameras); the support-to-centre-of-mass direction is
+    the vertical of a body that holds its balance (measured: 1.0 degree)."""
+    clip = make_one_leg_clip()
+    right_down = np.tile([True, False], (len(clip.root_pos), 1))
+    body_axis, balance = up_error_deg(clip, False, right_down), up_error_deg(clip, True, right_down)
+    assert body_axis > 8.0
+    assert balance < 3.0
+
+
+def tilted_stance(frames: int, tilt_deg: float, seed: int = 0):
+    """Centres of mass 0.9 m above soles along an up `tilt_deg` from z, with 2 cm of sway."""
+    rng = np.random.default_rng(seed)
+    up = np.array([np.sin(np.radians(tilt_deg)), 0.0, np.cos(np.radians(tilt_deg))])
+    soles = np.stack([rng.normal(0.0, 0.3, (frames, 3)), rng.normal(0.0, 0.3, (frames, 3))], axis=1)
+    contacts = rng.random((frames, 2)) < 0.7
+    contacts[:, 0] |= ~contacts[:, 1]  # a foot down in every frame
+    support = (soles * contacts[..., None]).sum(axis=1) / contacts.sum(axis=1, keepdims=True)
+    com = support + 0.9 * up + rng.normal(0.0, 0.02, (frames, 3))
+    return com, soles, contacts, up
+
+
+def test_balance_up_is_the_mean_support_to_centre_of_mass_direction():
+    com, soles, contacts, up = tilted_stance(40, 12.0)
+    found = balance_up(com, soles, contacts, np.ones(40, bool), np.array([0.0, 0.0, 1.0]))
+    assert np.degrees(np.arccos(found @ up)) < 1.0
+
+
+def test_balance_up_declines_what_it_cannot_tell():
+    z = np.array([0.0, 0.0, 1.0])
+    com, soles, contacts, _ = tilted_stance(40, 12.0)
+    seen = np.ones(40, bool)
+    few = contacts & (np.arange(40) < MIN_BALANCE_FRAMES - 1)[:, None]
+    assert balance_up(com, soles, few, seen, z) is None  # too few frames with a foot down
+    assert balance_up(com, soles, contacts, np.arange(40) < MIN_BALANCE_FRAMES - 1, z) is None  # the rest unseen
+    scattered = soles.mean(axis=1) + np.random.default_rng(1).normal(0.0, 1.0, (40, 3))
+    assert balance_up(scattered, soles, contacts, seen, z) is None  # directions that disagree
+    far_com, far_soles, far_contacts, _ = tilted_stance(40, MAX_BALANCE_TURN_DEG + 10.0)
+    assert balance_up(far_com, far_soles, far_contacts, seen, z) is None  # a turn no camera's tilt explains
+    near_com, near_soles, near_contacts, _ = tilted_stance(40, 0.5 * MIN_BALANCE_TURN_DEG, seed=2)
+    assert balance_up(near_com, near_soles, near_contacts, seen, z) is None  # within the sway: the body's up stays

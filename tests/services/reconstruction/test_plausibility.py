@@ -148,3 +148,18 @@ def test_an_unsettled_start_is_found_and_a_walk_that_starts_at_once_is_not():
     cut, change = unsettled_start(_motion(jolted))
     assert change > START_DV_M_S and cut == 6  # up to the last jolt (frame 5's velocity against frame 4's), inclusive
     assert unsettled_start(_motion(jolted[cut:]))[0] == 0
+
+
+def test_an_unsettled_end_is_found_and_cut_as_the_start_is():
+    """A subject leaving the view at the frame's edge: the last frames' root jolts, the start's does not."""
+    from services.reconstruction.plausibility import START_DV_M_S, unsettled_end, unsettled_start
+
+    frames = 60
+    walk = np.column_stack((1.2 * np.arange(frames) / FPS, np.zeros(frames), np.full(frames, 0.9)))
+    assert unsettled_end(_motion(walk))[0] == 0
+    leaving = walk.copy()
+    leaving[-3:, 1] += [0.4, 1.5, 0.2]  # half a body, read metres off in depth
+    tail, change = unsettled_end(_motion(leaving))
+    assert change > START_DV_M_S and tail == 4  # from the first jolt (frame 57's velocity against 56's) to the end
+    assert unsettled_end(_motion(leaving[:-tail]))[0] == 0
+    assert unsettled_start(_motion(leaving))[0] == 0

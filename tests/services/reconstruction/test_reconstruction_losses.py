@@ -3,6 +3,7 @@ initial fit, label flips, metrics."""
 import dataclasses
 
 import numpy as np
+import pytest
 import torch
 
 from actors.character import quaternion as qn
@@ -15,7 +16,7 @@ from services.reconstruction.camera import (
     fit_translations,
 )
 from services.reconstruction.initial_fit import fit_poses_to_points
-from services.reconstruction.keypoints import NUM_FIT, NUM_JOINT_KEYPOINTS, fit_index, observe
+from services.reconstruction.keypoints import JOINT_KEYPOINTS, NUM_FIT, NUM_JOINT_KEYPOINTS, fit_index, observe
 from services.reconstruction.kinematics_torch import forward_kinematics_torch, joint_quats_from_params_torch
 from services.reconstruction.label_flips import find_label_flips, mirrored_reading, undo_label_flips
 from services.reconstruction.losses import (
@@ -94,6 +95,33 @@ def test_lsm_is_zero_for_a_constant_pose_and_squares_displacements():
     moving = still + torch.arange(6, dtype=torch.float64)[:, None, None] * torch.tensor([0.02, 0.0, 0.0], dtype=torch.float64)
     # 2 cm per frame = 2 units per joint per frame pair, squared, over 12 joints.
     assert torch.allclose(smoothness(moving, 0.01), torch.full((5,), 4.0 * NUM_JOINT_KEYPOINTS, dtype=torch.float64))
+
+
+def test_the_body_smoothness_leaves_a_steady_travel_free_and_charges_the_body_and_changes_of_pace():
+    """A run across the view: SFV's l_sm charges the travel itself, "body" and "acceleration" do not."""
+    params = random_params(1, seed=3)
+    with torch.no_grad():
+        fit, _ = body_points(params.root_pos, params.root_quat(), params.joint_quats())
+    still = fit.expand(6, -1, -1)[:, :NUM_JOINT_KEYPOINTS]
+    hips = lambda points: points[:, [JOINT_KEYPOINTS.index("RHip"), JOINT_KEYPOINTS.index("LHip")]].mean(dim=1)  # noqa: E731
+    steady = still + torch.arange(6, dtype=torch.float64)[:, None, None] * torch.tensor([0.1, 0.0, 0.0], dtype=torch.float64)
+    assert smoothness(steady, 0.01, "displacement").min() > 0.0
+    assert smoothness(steady, 0.01, "body", hips(steady)).abs().max() < 1e-9
+    assert smoothness(steady, 0.01, "acceleration").abs().max() < 1e-9
+    # An arm that swings while the body travels costs "body" what it costs SFV's term standing still.
+    swing = steady.clone()
+    wrist = JOINT_KEYPOINTS.index("RWrist")
+    swing[:, wrist, 2] += 0.05 * torch.tensor([0.0, 1.0, 0.0, 1.0, 0.0, 1.0], dtype=torch.float64)
+    standing_swing = still.clone()
+    standing_swing[:, wrist, 2] = swing[:, wrist, 2] - (steady - still)[:, wrist, 2]
+    assert torch.allclose(smoothness(swing, 0.01, "body", hips(swing)), smoothness(standing_swing, 0.01)[1:])
+    # A change of pace costs J times the hips' squared change of displacement.
+    slowing = still.clone()
+    slowing[3:] += torch.tensor([0.03, 0.0, 0.0], dtype=torch.float64)  # one 3 cm step in six frames
+    lsm = smoothness(slowing, 0.01, "body", hips(slowing))
+    assert torch.allclose(lsm[1:3], torch.full((2,), 9.0 * NUM_JOINT_KEYPOINTS, dtype=torch.float64))
+    with pytest.raises(ValueError, match="smoothness mode"):
+        smoothness(still, 0.01, "speed")
 
 
 def test_ground_penalty_counts_only_points_below_the_ground():
