@@ -4,7 +4,8 @@ World frame: z up (ground plane z = 0); world x is the image's right direction m
 horizontal, so the camera's x axis lies in the world's x-z plane and the camera looks
 roughly along +y. A monocular clip fixes the camera only up to this choice: any
 rotation or shift of camera and motion together leaves every loss term unchanged, so the
-extrinsics are set once (up direction from the body, height from the feet) and the root
+extrinsics are set once (up direction from the body: its axis, `estimate_up`, turned to balance,
+`balance_up`, and levelled along its travel, `level_along`; height from the feet) and the root
 trajectory carries the rest.
 """
 from __future__ import annotations

@@ -2,9 +2,10 @@
 
 1. The track's landmarks become the humanoid's fit points (`keypoints.py`); frames where
    the estimator read the body the wrong way round are undone (`label_flips.py`).
-2. A static pinhole camera is set up (`camera.py`: focal length from the image size, up
-   direction from the body) and the 3D prediction is fitted frame by frame to the humanoid
-   (`initial_fit.py`): q_hat_t. Each frame's root is placed where its pose best reprojects
+2. A static pinhole camera is set up (`camera.py`: focal length from the image size; the up
+   direction from the body's axis, turned to the support-to-centre-of-mass direction where feet
+   are down and levelled along a path of a metre or more: `world_rotation`) and the 3D
+   prediction is fitted frame by frame to the humanoid (`initial_fit.py`): q_hat_t. Each frame's root is placed where its pose best reprojects
    onto the 2D keypoints; the ground goes under the lowest foot of most frames.
 3. All frames are optimised together with Adam on
        l_rec = 10 l2D + 100 l3D + 25 lsm  (+ 100 x ground penetration)
@@ -16,7 +17,8 @@
    the paper's weights balance: l2D in per mille of the image height (confidence x L1),
    l3D in radians (root and 12 joint rotations against q_hat_t, weighted by
    w_t = exp(-delta_t), delta_t the weighted mean reprojection error of q_hat_t in the same
-   image units / `delta_scale`), lsm in centimetres^2 (12 joints, adjacent frames). Every
+   image units / `delta_scale`), lsm in centimetres^2 (12 joints, adjacent frames; by default
+   their motion about the hips and the hips' change of pace, `losses.smoothness`). Every
    term is averaged over frames, so the balance does not depend on the clip's length.
    The camera itself is not optimised: with a free root trajectory, moving the camera and
    the whole motion together changes no loss term (see `camera.py`).
