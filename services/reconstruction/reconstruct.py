@@ -5,8 +5,9 @@
 2. A static pinhole camera is set up (`camera.py`: focal length from the image size; the up
    direction from the body's axis, turned to the support-to-centre-of-mass direction where feet
    are down and levelled along a path of a metre or more: `world_rotation`) and the 3D
-   prediction is fitted frame by frame to the humanoid (`initial_fit.py`): q_hat_t. Each frame's root is placed where its pose best reprojects
-   onto the 2D keypoints; the ground goes under the lowest foot of most frames.
+   prediction is fitted frame by frame to the humanoid (`initial_fit.py`): q_hat_t. Each
+   frame's root is placed where its pose best reprojects onto the 2D keypoints; the ground
+   goes under the lowest foot of most frames.
 3. All frames are optimised together with Adam on
        l_rec = 10 l2D + 100 l3D + 25 lsm  (+ 100 x ground penetration)
              (+ 100 lcontact + 100 lslide where the foot-contact estimator says a foot is down)
