@@ -3,6 +3,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from services.reconstruction.losses import SMOOTHNESS_MODES
+
 
 @dataclass(frozen=True)
 class ReconstructionConfig:
@@ -10,7 +12,7 @@ class ReconstructionConfig:
     w_2d: float = field(default=10.0, metadata={"help": "weight of the 2D reprojection loss (paper: 10)"})
     w_3d: float = field(default=100.0, metadata={"help": "weight of the 3D-prediction rotation loss (paper: 100)"})
     w_smooth: float = field(default=25.0, metadata={"help": "weight of the joint-position smoothness loss (paper: 25)"})
-    smoothness: str = field(default="body", metadata={"choices": ("body", "displacement", "acceleration"), "help":
+    smoothness: str = field(default="body", metadata={"choices": SMOOTHNESS_MODES, "help":
         "what the smoothness loss charges (services/reconstruction/losses.py smoothness): body, the joints' "
         "displacement about the hips as SFV's l_sm and the hips' travel only where it changes; displacement, "
         "SFV's l_sm as printed, which charges travel itself (a 3 m side-view run came out 1.2 m short, 28 px "
@@ -62,7 +64,7 @@ class ReconstructionConfig:
                 "the person is upright most of the clip; otherwise assume a level camera (image up = world up)"})
     up_from_balance: bool = field(default=True, metadata={
         "help": "with contacts, turn the body's up to the mean direction from the feet down to the centre of mass "
-                "(a person on the ground stands over their support): 6.7 against 12.7 degrees from the calibrated "
+                "(a person on the ground stands over their support): 5.9 against 12.7 degrees from the calibrated "
                 "vertical, mean over the eight Pose2Sim cameras (services/reconstruction/camera.py balance_up)"})
     level_travel: bool = field(default=True, metadata={
         "help": "when the root's path spans at least 1 m, make the up perpendicular to its main direction (people "
@@ -81,7 +83,5 @@ class ReconstructionConfig:
     dtype: str = field(default="float64", metadata={"help": "torch dtype of the optimisation (float32 or float64)"})
 
     def __post_init__(self):
-        from services.reconstruction.losses import SMOOTHNESS_MODES
-
         if self.smoothness not in SMOOTHNESS_MODES:
             raise ValueError(f"smoothness must be one of {', '.join(SMOOTHNESS_MODES)}, got {self.smoothness!r}")

@@ -148,26 +148,26 @@ def check_reference(motion, contacts: np.ndarray | None = None):
 
 
 REPAIR_PASSES = 3
-# The clip's start is where a subject comes into view, often from behind something: BlazePose then
-# reads a half-hidden body, and the frames' poses are wrong along with their root, which the
-# repair above cannot mend. A root whose velocity changes by more than START_DV_M_S from one step
-# to the next within the first START_S (18 g at 30 fps, 37 g at 60) is such a start: the park walk
+# The clip's start is where a subject comes into view (its end, mirrored, where one leaves), often
+# from behind something: BlazePose then reads a half-hidden body, and the frames' poses are wrong
+# along with their root, which the repair above cannot mend. A root whose velocity changes by more than EDGE_DV_M_S from one step
+# to the next within the first EDGE_S (18 g at 30 fps, 37 g at 60) is such a start: the park walk
 # behind a pole, where she steps out from behind a tree, 15.7 m/s; the development set's
 # reconstructions at most 1.2 (their first half second; 0.2-0.6 on the Pose2Sim cameras); the
 # synthetic test clips' noisy quick fits up to 5.4.
-START_S, START_DV_M_S = 0.5, 6.0
+EDGE_S, EDGE_DV_M_S = 0.5, 6.0  # either end of the clip (`unsettled_start`, `unsettled_end`)
 
 
 def unsettled_start(motion) -> tuple[int, float]:
     """(frames to leave out at the clip's start, the largest velocity change there in m/s): up to
-    and including the last frame within START_S at which the root's velocity changes by more than
-    START_DV_M_S; (0, that change) when none does."""
+    and including the last frame within EDGE_S at which the root's velocity changes by more than
+    EDGE_DV_M_S; (0, that change) when none does."""
     return _unsettled_head(np.asarray(motion.root_pos), float(motion.fps))
 
 
 def unsettled_end(motion) -> tuple[int, float]:
     """The same at the clip's end, a subject leaving the view: (frames to leave out at the end, the
-    largest velocity change within START_S of it). Measured on the reconstructions before the
+    largest velocity change within EDGE_S of it). Measured on the reconstructions before the
     check's repair (`video_motion` judges both ends there): a walker leaving a plain-walled room at
     the frame's edge, 164.9 m/s (9 frames cut; the repair alone left 43 m/s); Pose2Sim two-people
     cam03's man where he passes behind the woman, 12.6 m/s (24 frames); the other development
@@ -178,10 +178,10 @@ def unsettled_end(motion) -> tuple[int, float]:
 def _unsettled_head(root_pos: np.ndarray, fps: float) -> tuple[int, float]:
     velocity = np.diff(root_pos, axis=0) * fps
     change = np.linalg.norm(np.diff(velocity, axis=0), axis=1)  # change[k]: at frame k + 1
-    head = change[:max(1, int(round(START_S * fps)))]
+    head = change[:max(1, int(round(EDGE_S * fps)))]
     if head.size == 0:
         return 0, 0.0
-    jolts = np.flatnonzero(head > START_DV_M_S)
+    jolts = np.flatnonzero(head > EDGE_DV_M_S)
     return (int(jolts[-1]) + 2 if jolts.size else 0), float(head.max())
 
 

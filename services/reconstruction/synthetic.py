@@ -164,7 +164,8 @@ def _one_leg_pose(steer: np.ndarray, left_hip_out: float) -> tuple[np.ndarray, n
     the left hip `left_hip_out` radians out to the side; and the gap (2,) from the right sole's
     centre to the centre of mass, horizontally."""
     spherical, revolute = np.zeros((8, 3)), np.zeros(4)
-    right_hip, right_ankle, left_hip = (list(SPHERICAL_JOINTS).index(JOINT_NAMES.index(n)) for n in ("right_hip", "right_ankle", "left_hip"))
+    balls = list(SPHERICAL_JOINTS)
+    right_hip, right_ankle, left_hip = (balls.index(JOINT_NAMES.index(n)) for n in ("right_hip", "right_ankle", "left_hip"))
     spherical[right_hip, :2], spherical[right_ankle, :2] = steer, -steer
     spherical[left_hip, 0] = left_hip_out
     params = PoseParams.create(np.array([[0.0, 0.0, 1.0]]), qn.quat_from_axis_angle(np.array([[0.0, 0.0, -np.pi / 2]])),

@@ -137,7 +137,7 @@ def test_a_run_of_wrong_frames_at_the_start_is_repaired_to_the_walk_after_it():
 
 def test_an_unsettled_start_is_found_and_a_walk_that_starts_at_once_is_not():
     """Frames read while the subject steps out from behind a tree: the root jolts there."""
-    from services.reconstruction.plausibility import START_DV_M_S, unsettled_start
+    from services.reconstruction.plausibility import EDGE_DV_M_S, unsettled_start
 
     frames = 60
     walk = np.column_stack((-1.2 * np.arange(frames) / FPS, np.zeros(frames), np.full(frames, 0.9)))
@@ -146,13 +146,13 @@ def test_an_unsettled_start_is_found_and_a_walk_that_starts_at_once_is_not():
     jolted = walk.copy()
     jolted[:5, 0] += [0.6, 0.2, 0.55, 0.1, 0.3]  # a half-hidden body, read five ways
     cut, change = unsettled_start(_motion(jolted))
-    assert change > START_DV_M_S and cut == 6  # up to the last jolt (frame 5's velocity against frame 4's), inclusive
+    assert change > EDGE_DV_M_S and cut == 6  # up to the last jolt (frame 5's velocity against frame 4's), inclusive
     assert unsettled_start(_motion(jolted[cut:]))[0] == 0
 
 
 def test_an_unsettled_end_is_found_and_cut_as_the_start_is():
     """A subject leaving the view at the frame's edge: the last frames' root jolts, the start's does not."""
-    from services.reconstruction.plausibility import START_DV_M_S, unsettled_end, unsettled_start
+    from services.reconstruction.plausibility import EDGE_DV_M_S, unsettled_end, unsettled_start
 
     frames = 60
     walk = np.column_stack((1.2 * np.arange(frames) / FPS, np.zeros(frames), np.full(frames, 0.9)))
@@ -160,6 +160,6 @@ def test_an_unsettled_end_is_found_and_cut_as_the_start_is():
     leaving = walk.copy()
     leaving[-3:, 1] += [0.4, 1.5, 0.2]  # half a body, read metres off in depth
     tail, change = unsettled_end(_motion(leaving))
-    assert change > START_DV_M_S and tail == 4  # from the first jolt (frame 57's velocity against 56's) to the end
+    assert change > EDGE_DV_M_S and tail == 4  # from the first jolt (frame 57's velocity against 56's) to the end
     assert unsettled_end(_motion(leaving[:-tail]))[0] == 0
     assert unsettled_start(_motion(leaving))[0] == 0
