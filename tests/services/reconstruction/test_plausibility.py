@@ -163,3 +163,60 @@ def test_an_unsettled_end_is_found_and_cut_as_the_start_is():
     assert change > EDGE_DV_M_S and tail == 4  # from the first jolt (frame 57's velocity against 56's) to the end
     assert unsettled_end(_motion(leaving[:-tail]))[0] == 0
     assert unsettled_start(_motion(leaving))[0] == 0
+
+
+def _walk(frames: int, fps: float, speed: float = 1.1) -> np.ndarray:
+    return np.column_stack((-speed * np.arange(frames) / fps, np.zeros(frames), np.full(frames, 0.9)))
+
+
+def test_an_excursion_out_and_back_is_repaired_though_its_steps_are_their_own_median(monkeypatch):
+    """The park walk where she passes the man: the root goes 0.6 m off in depth and back over nine
+    frames, at 4-5 m/s a step, so the spike rule's local median is raised by the excursion itself."""
+    from services.reconstruction import plausibility
+    from services.reconstruction.plausibility import OFF_PATH_M
+
+    fps = 30.0
+    root = _walk(141, fps)
+    root[88:97, 1] += [0.17, 0.35, 0.53, 0.6, 0.6, 0.45, 0.3, 0.15, 0.03]
+    assert root_speeds(root, fps)[88:96].max() > 5.0
+    with monkeypatch.context() as patch:  # the spike rule alone leaves most of it
+        patch.setattr(plausibility, "OFF_PATH_M", np.inf)
+        spikes_only, _ = check_reference(_motion_at(root, fps))
+    assert root_speeds(spikes_only.root_pos, fps).max() > 5.0 and np.abs(spikes_only.root_pos[:, 1]).max() > 0.5
+    checked, check = check_reference(_motion_at(root, fps))
+    assert "leaves the path" in check.line and "\n" not in check.line
+    assert set(range(89, 94)) <= set(check.repaired_frames.tolist())
+    assert np.abs(checked.root_pos[:, 1]).max() < OFF_PATH_M / 2  # back on her path
+    assert root_speeds(checked.root_pos, fps).max() < 2.5
+    np.testing.assert_array_equal(checked.root_pos[:80], root[:80])  # frames away from it untouched
+
+
+@pytest.mark.parametrize("shape", ["turn", "sprint", "cut"])
+def test_a_path_that_bends_or_speeds_up_is_not_an_excursion(shape):
+    """A walker who turns round, a sprinter's start (0 to 8 m/s in 1.5 s) and side-to-side cuts at
+    6 m/s^2 follow smooth paths: none of their frames is off the path, though the cuts swing 0.4 m."""
+    from services.reconstruction.plausibility import OFF_PATH_M, path_residuals
+
+    fps = 30.0
+    t = np.arange(300) / fps
+    root = np.column_stack((np.zeros_like(t), np.zeros_like(t), np.full_like(t, 0.9)))
+    if shape == "turn":  # 1.1 m/s out, the turn in about a second, 1.1 m/s back
+        velocity = 1.1 * np.tanh((5.0 - t) / 0.3)
+        root[:, 0] = np.cumsum(velocity) / fps
+    elif shape == "sprint":
+        root[:, 0] = np.cumsum(np.clip(t / 1.5, 0.0, 1.0) * 8.0) / fps
+    else:
+        root[:, 0] = 1.5 * t
+        lateral = np.cumsum(np.cumsum(np.where((t // 0.5) % 2 == 0, 6.0, -6.0)) / fps) / fps
+        root[:, 1] = lateral - np.linspace(lateral[0], lateral[-1], len(t))
+        assert np.ptp(root[:, 1]) > OFF_PATH_M
+    root += np.random.default_rng(0).normal(0.0, 0.01, root.shape)  # 1 cm of reconstruction jitter
+    assert path_residuals(root, fps).max() < OFF_PATH_M
+    assert check_reference(_motion_at(root, fps))[1].repaired_frames.size == 0
+
+
+def _motion_at(root: np.ndarray, fps: float) -> ReferenceMotion:
+    frames = len(root)
+    identity = np.tile([1.0, 0.0, 0.0, 0.0], (frames, 1))
+    return ReferenceMotion(name="t", frame_times=np.arange(frames) / fps, root_pos=root, root_rot=identity,
+                           joint_rot=np.tile(identity[:, None], (1, 12, 1)), loop=False, extras={})
