@@ -54,7 +54,9 @@ class FootContactEstimator:
 def track_contacts(track, label_flipped: np.ndarray | None = None,
                    estimator: FootContactEstimator | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(T, 2) probabilities and (T, 2) flags (right, left) for a `services.pose.PoseTrack`,
-    read with the left/right corrections the reconstruction made (`label_flipped`)."""
+    read with the left/right corrections the reconstruction made (`label_flipped`). A flag is a
+    probability of at least CONTACT_THRESHOLD, and a walker's short gaps with no foot down get
+    the likelier foot (`supported`)."""
     from services.reconstruction.keypoints import observe
     from services.reconstruction.label_flips import undo_label_flips
 
@@ -62,4 +64,14 @@ def track_contacts(track, label_flipped: np.ndarray | None = None,
     if label_flipped is not None:
         observed = undo_label_flips(observed, np.asarray(label_flipped, bool))
     probabilities = (estimator or FootContactEstimator()).estimate(observed.keypoints2d, observed.confidence, track.fps)
-    return probabilities, probabilities >= CONTACT_THRESHOLD
+    return probabilities, supported(probabilities >= CONTACT_THRESHOLD, probabilities, observed, track.fps)
+
+
+def supported(flags: np.ndarray, probabilities: np.ndarray, observed, fps: float) -> np.ndarray:
+    """`flags` with a walker's missed support put down (`services/contacts/support.py`)."""
+    from services.contacts.support import fill_missed_support, hip_pace, keypoint_span
+    from services.reconstruction.keypoints import fit_index
+
+    span = keypoint_span(observed.keypoints2d, observed.confidence)
+    pace = hip_pace(observed.keypoints2d, [fit_index("RHip"), fit_index("LHip")], span, fps)
+    return fill_missed_support(flags, probabilities, pace, fps)[0]

@@ -7,11 +7,14 @@ first frame and, if not, the first cause found, checked in this order:
 2. the subject barely seen just before the fall: mean keypoint confidence under
    SEEN_CONFIDENCE over the WINDOW_S before it (an occlusion, a subject leaving the frame);
 3. a reference out of reach there: its contact feet floating more than FLOAT_M above the floor
-   where the estimator says they are down, or root steps the reference check repaired;
+   where the estimator says they are down, or root frames the reference check repaired within
+   that window;
 4. drift: the simulated root more than DRIFT_M from the reference's, horizontally, at the fall.
 Otherwise the line says none of these was found.
 """
 from __future__ import annotations
+
+import re
 
 import numpy as np
 
@@ -58,9 +61,21 @@ def _reach_cause(rows: np.ndarray, steps: slice, ref_points, extras: dict) -> st
         if floating > FLOAT_M:
             return f"a reference out of reach (a contact foot {100 * floating:.0f} cm above the floor while called down)"
     line = str(extras.get("reference_check", ""))
-    if "repaired the root in frames" in line and rows.size:
-        return "a reference repaired just before it (" + line.split("; repaired ")[-1] + ")"
+    near = sorted(repaired_frames(line) & set(rows.tolist()))
+    if near:
+        return f"a reference repaired just before it (the check re-placed its root in frames {near[0]}-{near[-1]} of the clip)"
     return None
+
+
+def repaired_frames(line: str) -> set[int]:
+    """The frames a reference check's line says it repaired ("repaired the root in frames 3, 89-97")."""
+    match = re.search(r"repaired the root in frames ([0-9, \-]+)", line)
+    frames: set[int] = set()
+    for part in (match.group(1).split(",") if match else []):
+        first, _, last = part.strip().partition("-")
+        if first.isdigit():
+            frames.update(range(int(first), int(last if last.isdigit() else first) + 1))
+    return frames
 
 
 def _drift_cause(rollout, fall: int) -> str | None:

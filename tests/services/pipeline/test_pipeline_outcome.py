@@ -61,3 +61,16 @@ def test_an_unseen_subject_then_a_floating_contact_then_drift():
     assert outcome_line(_rollout(20, sim_root=beside), _reconstruction(), ROWS, _points()).endswith(
         "drift (0.80 m from the reference's root at the fall)")
     assert outcome_line(_rollout(20), _reconstruction(), ROWS, _points()).startswith("fell at 0.67 s: no cause found")
+
+
+def test_a_repair_is_a_cause_only_where_it_is_near_the_fall():
+    """The park walk's body alone fell at 4.20 s, and the line blamed the repair of frames 89-97, 1.2 s before."""
+    from services.pipeline.outcome import repaired_frames
+
+    line = "reference check: ...; repaired the root in frames 3, 12-14 (now at most 1.20 m/s)"
+    assert repaired_frames(line) == {3, 12, 13, 14}
+    assert repaired_frames("reference check: nothing to repair") == set()
+    near = outcome_line(_rollout(20), _reconstruction(check=line), ROWS, _points())  # window: frames 5-20
+    assert near.endswith("a reference repaired just before it (the check re-placed its root in frames 12-14 of the clip)")
+    far = outcome_line(_rollout(30), _reconstruction(check=line), ROWS, _points())  # window: frames 15-30
+    assert "repaired" not in far and "no cause found" in far
