@@ -38,6 +38,7 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
     from services.contacts.video_extras import video_extras
     from services.pose.camera_path import camera_path, decide_camera
     from services.pose.subject import crop_to_seen, track_window
+    from services.pose.view_edges import at_the_sides
     from services.reconstruction import reconstruct_on_ray, reconstruct_track
     from services.reconstruction.plausibility import check_reference, unsettled_end, unsettled_start
     from services.reconstruction.root_free import make_root_free
@@ -62,6 +63,11 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
         return motion
 
     track = crop_to_seen(track, source, tell)
+    lead, trail = at_the_sides(track)
+    if (lead or trail) and len(track) - lead - trail >= MIN_FRAMES_AFTER_CUT:
+        # a subject walking in or out at the picture's side: half a body, read whole
+        track = track_window(track, lead, len(track) - trail)
+        tell(f"subject frames: {_left_at_sides(track, lead, trail)}; --frames A:B chooses others")
     path = path_of(track)
     moving = decide_camera(camera, path, track.image_size[0], source)
     if moving:
@@ -99,3 +105,14 @@ def _left_out(track, cut: int, tail: int, jolt: float) -> str:
     parts += [f"the last {tail} ({tail / fps:.2f} s)"] if tail else []
     return (f"frames {track.start_frame}-{track.start_frame + len(track) - 1} ({' and '.join(parts)} are left out: the "
             f"root's velocity changes by up to {jolt:.1f} m/s from one frame to the next there, as a body half in view is read)")
+
+
+def _left_at_sides(track, lead: int, trail: int) -> str:
+    """What the side cut leaves out, in words (`services/pose/view_edges.py`)."""
+    from services.pose.view_edges import EDGE_FRACTION
+
+    fps = float(track.fps)
+    parts = [f"the first {lead} ({lead / fps:.2f} s)"] if lead else []
+    parts += [f"the last {trail} ({trail / fps:.2f} s)"] if trail else []
+    return (f"frames {track.start_frame}-{track.start_frame + len(track) - 1} ({' and '.join(parts)} are left out: the "
+            f"hips within {100 * EDGE_FRACTION:.0f} % of the picture's side, half the body out of view)")

@@ -87,3 +87,24 @@ def test_an_end_read_from_a_body_leaving_the_view_is_left_out_and_said():
     assert len(lines) == 1 and lines[0].startswith(f"subject frames: frames 0-{kept - 1} (the last {45 - kept} (")
     untouched = video_motion(clean, SETTLED, "clip", "static", "clip.mp4", use_ray=False)
     assert untouched.motion.num_frames == 45 and "subject_lines" not in untouched.motion.extras
+
+
+def test_a_subject_walking_out_at_the_side_of_the_picture_is_cut_before_the_reconstruction():
+    """The park walker's last frames: her hips within 5 % of the picture's left side."""
+    from services.pose.view_edges import at_the_sides
+
+    clean = make_clip(frames=45, seed=1).track
+    assert at_the_sides(clean) == (0, 0)
+    keypoints = clean.keypoints2d.copy()
+    width = float(clean.image_size[0])
+    hips = keypoints[:, [23, 24], 0].mean(axis=1)
+    keypoints[40:, :, 0] += (0.02 * width - hips[40:])[:, None]  # the last five frames: hips 2 % from the left side
+    leaving = dataclasses.replace(clean, keypoints2d=keypoints.astype(clean.keypoints2d.dtype))
+    assert at_the_sides(leaving) == (0, 5)
+    lines = []
+    made = video_motion(leaving, FAST, "clip", "static", "clip.mp4", use_ray=False, say=lines.append)
+    assert made.motion.num_frames <= 40
+    assert lines[0] == ("subject frames: frames 0-39 (the last 5 (0.17 s) are left out: the hips within 5 % of the "
+                        "picture's side, half the body out of view); --frames A:B chooses others")
+    everywhere = dataclasses.replace(clean, keypoints2d=(clean.keypoints2d * 0 + 0.01 * width).astype(clean.keypoints2d.dtype))
+    assert at_the_sides(everywhere) == (0, 0)  # one who stays at the side is left whole
