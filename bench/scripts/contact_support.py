@@ -27,15 +27,15 @@ RESULT = REPO / "bench" / "results" / "contact_support.json"
 TRIAL = REPO.parent / "shared" / "data" / "video" / "pose2sim_balancing"
 
 
-def camera_row(video: Path, tracks: Path) -> dict:
+def camera_row(video: Path, tracks: Path | None) -> dict:
     from services.contacts.estimator import CONTACT_THRESHOLD
     from services.contacts.video_motion import video_motion
     from services.pose import PoseTrack, estimate_video
     from services.reconstruction import ReconstructionConfig
     from tests.pose2sim_truth import marker_contacts
 
-    cached = tracks / f"balancing_{video.stem}.npz"
-    track = PoseTrack.load(cached) if cached.is_file() else estimate_video(video)
+    cached = None if tracks is None else tracks / f"balancing_{video.stem}.npz"
+    track = PoseTrack.load(cached) if cached is not None and cached.is_file() else estimate_video(video)
     motion = video_motion(track, ReconstructionConfig(), video.stem, "static", str(video), use_ray=False).motion
     start, frames = int(motion.extras.get("video_start_frame", 0)), motion.num_frames
     truth = marker_contacts()[start:start + frames]
@@ -51,7 +51,8 @@ def camera_row(video: Path, tracks: Path) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--tracks", type=Path, default=Path("/work/runs/tracks"))
+    parser.add_argument("--tracks", type=Path, default=None, help="folder of saved tracks (balancing_camNN.npz); "
+                        "absent: BlazePose runs on each video")
     parser.add_argument("--out", type=Path, default=RESULT)
     args = parser.parse_args(argv)
     rows = []
