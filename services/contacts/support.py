@@ -12,14 +12,15 @@ A run of frames with no foot down is taken as missed support, and each of its fr
 of higher probability, when both hold:
 - it lasts at most MAX_GAP_S (a run's flight lasts 0.1-0.15 s, so the pace decides it; a jump's
   flight of a quarter second or more is kept);
-- the hips' midpoint moves in the image slower than FLIGHT_PACE keypoint spans per second over the
-  gap and WINDOW_S either side (the median: where the park walker passes the man on the box, her
-  hip keypoints jump by up to 3.7 spans/s for a few frames while she walks on) (the span: the clip's median height of the subject's keypoints in
-  the image, about 0.85 of their stature). People walk up to about 2 m/s and run from there; a
-  walker at 1.3 m/s seen from the side moves at about 0.9 spans/s, and the rise of a jump's
-  take-off (1.5 m/s or more) is about 1 span/s and more. A subject walking toward the camera
-  moves less in the image, so the rule reads a run toward the camera as a walk: it may put a
-  foot down in a flight (the limitation).
+- the hips' midpoint moves in the image slower than FLIGHT_PACE keypoint spans per second, the
+  median over the gap and WINDOW_S either side. The span is the clip's median height of the
+  subject's keypoints in the image, about 0.85 of their stature; the median, because where the
+  park walker passes the man on the box her hip keypoints jump at up to 3.7 spans/s for a few
+  frames while she walks on. People walk up to about 2 m/s and run from there; the park walker
+  (1.3 m/s, seen from the side) moves at 0.64 spans/s (median), and a jump's take-off (1.5 m/s
+  or more) is about 1 span/s and more. A subject running toward the camera moves less in the
+  image, so the rule reads such a run as a walk and may put a foot down in its flight (the
+  limitation).
 """
 from __future__ import annotations
 

@@ -63,7 +63,8 @@ def _reach_cause(rows: np.ndarray, steps: slice, ref_points, extras: dict) -> st
     line = str(extras.get("reference_check", ""))
     near = sorted(repaired_frames(line) & set(rows.tolist()))
     if near:
-        return f"a reference repaired just before it (the check re-placed its root in frames {near[0]}-{near[-1]} of the clip)"
+        return ("a reference repaired just before it (the check re-placed its root in frames "
+                f"{near[0]}-{near[-1]} of the clip)")
     return None
 
 
