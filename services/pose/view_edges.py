@@ -18,9 +18,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from services.pose.activity import HIPS  # BlazePose's left and right hip
+
 EDGE_FRACTION = 0.05
 MAX_CUT_FRACTION = 1.0 / 3.0
-HIPS = [23, 24]  # BlazePose's left and right hip
 
 
 def hip_position(track) -> np.ndarray:
