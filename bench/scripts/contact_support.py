@@ -59,9 +59,8 @@ def main(argv: list[str] | None = None) -> int:
     for camera in ("cam01", "cam02", "cam03", "cam04"):
         rows.append(camera_row(TRIAL / f"{camera}.mp4", args.tracks))
         print(json.dumps(rows[-1]), flush=True)
-    temp = args.out.with_suffix(".tmp")
-    temp.write_text(json.dumps(rows, indent=1) + "\n")
-    temp.replace(args.out)
+    from learner.atomic_io import atomic_write_json
+    atomic_write_json(args.out, rows)
     return 0
 
 

@@ -107,9 +107,8 @@ def main(argv: list[str] | None = None) -> int:
         result = analyse(run)
         results.append(result)
         print(json.dumps({k: v for k, v in result.items() if k != "most_help"}), flush=True)
-    temp = args.out.with_suffix(".tmp")
-    temp.write_text(json.dumps(results, indent=1) + "\n")
-    temp.replace(args.out)
+    from learner.atomic_io import atomic_write_json
+    atomic_write_json(args.out, results)
     return 0
 
 

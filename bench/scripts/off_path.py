@@ -85,9 +85,8 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps({k: v for k, v in row.items() if not k.startswith("check_line")}), flush=True)
     result = {"threshold_m": OFF_PATH_M, "rows": rows}
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    temp = args.out.with_suffix(".tmp")
-    temp.write_text(json.dumps(result, indent=1) + "\n")
-    temp.replace(args.out)
+    from learner.atomic_io import atomic_write_json
+    atomic_write_json(args.out, result)
     return 0
 
 

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import sys
 import tomllib
 from pathlib import Path
@@ -81,9 +80,8 @@ def main(argv: list[str] | None = None) -> int:
     for pair in args.pairs:
         track, _, video = pair.partition("=")
         results.append(measure_track(Path(track), Path(video), weights))
-        temp = args.out.with_suffix(".tmp")
-        temp.write_text(json.dumps({"weights": weights, "rows": results}, indent=1) + "\n")
-        temp.replace(args.out)
+        from learner.atomic_io import atomic_write_json
+        atomic_write_json(args.out, {"weights": weights, "rows": results})
     return 0
 
 

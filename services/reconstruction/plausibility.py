@@ -118,7 +118,7 @@ def path_residuals(root_pos: np.ndarray, fps: float) -> np.ndarray:
     return residual[np.arange(count), np.arange(count) - starts]
 
 
-def off_path_frames(root_pos: np.ndarray, fps: float) -> np.ndarray:
+def off_path_frames(root_pos: np.ndarray, fps: float, residual: np.ndarray | None = None) -> np.ndarray:
     """(T,) bool: frames whose root is more than OFF_PATH_M from the path around it. The park
     walk's root went 5.2-5.4 m/s out over frames 88-90 and 4.2-5.0 back over 93-96, where she
     passes the man on the box: a plateau of fast steps raises the local median that the spike
@@ -126,7 +126,7 @@ def off_path_frames(root_pos: np.ndarray, fps: float) -> np.ndarray:
     frames takes in the frames beside it that are more than a third of OFF_PATH_M off: anchored on
     an excursion's first or last frame (0.3 m off), the interpolation left 4.2 m/s in the test's
     excursion."""
-    residual = path_residuals(root_pos, fps)
+    residual = path_residuals(root_pos, fps) if residual is None else residual
     off = residual > OFF_PATH_M
     near = residual > OFF_PATH_M / 3  # an excursion's own edges: the repair's anchors must be on the path
     grown = off.copy()
@@ -252,7 +252,7 @@ def _check_once(motion, contacts):
     flags = flag_steps(motion.root_pos, fps, contacts)
     flagged = np.logical_or.reduce(list(flags.values()))
     residual = path_residuals(motion.root_pos, fps)
-    off_path = off_path_frames(motion.root_pos, fps)
+    off_path = off_path_frames(motion.root_pos, fps, residual)
     speed = root_speeds(motion.root_pos, fps)
     if not flagged.any() and not off_path.any():
         return motion, ReferenceCheck(np.zeros(0, int), np.zeros(0, int), f"reference check: the root moves at "
