@@ -32,12 +32,11 @@ MARKER_CONTACT_HEIGHT = 0.05  # metres above the foot's own lowest point in the 
 MARKER_CONTACT_SPEED = 0.6    # metres per second, as the training labels
 
 
-def marker_contacts() -> np.ndarray:
+def marker_contacts(filtered: Path = CLIP_DIR / "S00_P00_T01_BalancingTrial_0-100_filt_butterworth.trc") -> np.ndarray:
     """(T, 2) right, left contact flags from the filtered markers: the lowest foot marker within
     5 cm of that foot's lowest height in the clip (the person stands on a raised plate with one
     foot and steps down beside it with the other, so there is no one floor) and the foot's
-    markers moving slower than 0.6 m/s horizontally."""
-    filtered = CLIP_DIR / "S00_P00_T01_BalancingTrial_0-100_filt_butterworth.trc"
+    markers moving slower than 0.6 m/s horizontally. `filtered`: another person's (or trial's) markers."""
     names, world = markers(filtered)
     flags = []
     for foot in ("right", "left"):

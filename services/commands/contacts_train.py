@@ -22,6 +22,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--cameras", type=int, default=defaults.cameras_per_clip,
                         help="random cameras per clip and mirror (the four camera kinds take turns)")
     parser.add_argument("--seed", type=int, default=defaults.seed, help="seed of the cameras, noise and training")
+    parser.add_argument("--held-out", default=",".join(defaults.held_out),
+                        help="comma-separated DeepMimic clips left out of training and scored on their own cameras")
     parser.add_argument("--torch-threads", type=int, default=1, help="CPU threads for torch")
     parser.set_defaults(handler=run_contacts_train)
 
@@ -36,8 +38,16 @@ def run_contacts_train(args: argparse.Namespace) -> int:
 
     if args.epochs < 1 or args.cameras < 1 or args.torch_threads < 1:
         raise SfvError("--epochs, --cameras and --torch-threads must be >= 1")
+    from actors.motion.formats.io import DEEPMIMIC_CLIPS
+
+    held_out = tuple(name for name in args.held_out.split(",") if name)
+    unknown = [name for name in held_out if name not in DEEPMIMIC_CLIPS]
+    if unknown or not held_out:
+        raise SfvError(f"--held-out {args.held_out!r}: name one or more of {', '.join(DEEPMIMIC_CLIPS)}"
+                       + (f" ({', '.join(unknown)} is not one)" if unknown else ""))
     torch.set_num_threads(args.torch_threads)
-    settings = dataclasses.replace(TrainSettings(), epochs=args.epochs, cameras_per_clip=args.cameras, seed=args.seed)
+    settings = dataclasses.replace(TrainSettings(), epochs=args.epochs, cameras_per_clip=args.cameras, seed=args.seed,
+                                   held_out=held_out)
     network, report = train_contact_network(settings)
     path = save_shipped(network, report, args.out)
     table = ", ".join(f"{k} {v:.3f}" for k, v in report["held_out_accuracy"].items())

@@ -52,11 +52,12 @@ class FootContactEstimator:
 
 
 def track_contacts(track, label_flipped: np.ndarray | None = None,
-                   estimator: FootContactEstimator | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   estimator: FootContactEstimator | None = None, static_camera: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(T, 2) probabilities and (T, 2) flags (right, left) for a `services.pose.PoseTrack`,
     read with the left/right corrections the reconstruction made (`label_flipped`). A flag is a
-    probability of at least CONTACT_THRESHOLD, and a walker's short gaps with no foot down get
-    the likelier foot (`supported`)."""
+    probability of at least CONTACT_THRESHOLD; under a static camera a foot that stays put in the
+    picture while the body travels is down too (`services/contacts/planted.py`); and a walker's
+    short gaps with no foot down get the likelier foot (`supported`)."""
     from services.reconstruction.keypoints import observe
     from services.reconstruction.label_flips import undo_label_flips
 
@@ -64,7 +65,19 @@ def track_contacts(track, label_flipped: np.ndarray | None = None,
     if label_flipped is not None:
         observed = undo_label_flips(observed, np.asarray(label_flipped, bool))
     probabilities = (estimator or FootContactEstimator()).estimate(observed.keypoints2d, observed.confidence, track.fps)
-    return probabilities, supported(probabilities >= CONTACT_THRESHOLD, probabilities, observed, track.fps)
+    flags = probabilities >= CONTACT_THRESHOLD
+    if static_camera:
+        flags |= planted(observed, track.fps)
+    return probabilities, supported(flags, probabilities, observed, track.fps)
+
+
+def planted(observed, fps: float) -> np.ndarray:
+    """(T, 2) feet planted in a static camera's picture while the body travels (right, left)."""
+    from services.contacts.planted import planted_feet
+    from services.reconstruction.keypoints import fit_index
+
+    feet = [[fit_index(f"{side}{point}") for point in ("Heel", "Ankle", "Toe")] for side in ("R", "L")]
+    return planted_feet(observed.keypoints2d, observed.confidence, fps, [fit_index("RHip"), fit_index("LHip")], feet)
 
 
 def supported(flags: np.ndarray, probabilities: np.ndarray, observed, fps: float) -> np.ndarray:

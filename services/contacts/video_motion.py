@@ -16,6 +16,7 @@ says what was found, also kept in the motion as `reference_check`.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -58,7 +59,9 @@ def video_motion(track, config, name: str, camera: str, source: str, use_ray: bo
 
     def reconstructed(track, path):
         """The track's motion with the video's extras."""
-        motion = reconstruct(track, config, name, track_contacts)
+        # a static camera's picture shows a planted foot standing still (planted.py); a moving one's does not
+        contacts = track_contacts if moving else functools.partial(track_contacts, static_camera=True)
+        motion = reconstruct(track, config, name, contacts)
         motion.extras.update(video_extras(track, path, moving))
         return motion
 

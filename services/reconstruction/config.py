@@ -12,8 +12,11 @@ class ReconstructionConfig:
     w_2d: float = field(default=10.0, metadata={"help": "weight of the 2D reprojection loss (paper: 10)"})
     w_3d: float = field(default=100.0, metadata={"help": "weight of the 3D-prediction rotation loss (paper: 100)"})
     w_smooth: float = field(default=25.0, metadata={"help": "weight of the joint-position smoothness loss (paper: 25)"})
-    smoothness: str = field(default="body", metadata={"choices": SMOOTHNESS_MODES, "help":
-        "what the smoothness loss charges (services/reconstruction/losses.py smoothness): body, the joints' "
+    smoothness: str = field(default="stance", metadata={"choices": SMOOTHNESS_MODES, "help":
+        "what the smoothness loss charges (services/reconstruction/losses.py smoothness): stance, as body but the ankle "
+        "of a foot down at both frames is charged for its own displacement, not its displacement about the hips (a "
+        "4 m/s side-view run: stance ankles 2.8 -> 0.9 m/s, reprojection 9.7 -> 8.5 px; docs/video.md cause 18); "
+        "body, the joints' "
         "displacement about the hips as SFV's l_sm and the hips' travel only where it changes; displacement, "
         "SFV's l_sm as printed, which charges travel itself (a 3 m side-view run came out 1.2 m short, 28 px "
         "of reprojection against 10 with body; the eight Pose2Sim cameras: PA-MPJPE 85.8 against 85.7 mm, "

@@ -19,7 +19,8 @@
    l3D in radians (root and 12 joint rotations against q_hat_t, weighted by
    w_t = exp(-delta_t), delta_t the weighted mean reprojection error of q_hat_t in the same
    image units / `delta_scale`), lsm in centimetres^2 (12 joints, adjacent frames; by default
-   their motion about the hips and the hips' change of pace, `losses.smoothness`). Every
+   their motion about the hips (a planted foot's ankle: its own motion) and the hips' change
+   of pace, `losses.smoothness`). Every
    term is averaged over frames, so the balance does not depend on the clip's length.
    The camera itself is not optimised: with a free root trajectory, moving the camera and
    the whole motion together changes no loss term (see `camera.py`).
@@ -80,6 +81,7 @@ HIP_POINTS = [fit_index("RHip"), fit_index("LHip")]  # their midpoint: the centr
 # The sole points of the feet (CONTACT_FEET order) that span the balance term's support.
 HEEL_POINTS = [fit_index("RHeel"), fit_index("LHeel")]
 TOE_POINTS = [fit_index("RToe"), fit_index("LToe")]
+ANKLE_POINTS = [fit_index("RAnkle"), fit_index("LAnkle")]
 # (track, label_flipped (T,)) -> (probabilities (T, 2), flags (T, 2) bool), feet in CONTACT_FEET
 # order: `services.contacts.estimator.track_contacts` (above this package, so it is passed in).
 ContactEstimate = Callable[[object, np.ndarray], tuple[np.ndarray, np.ndarray]]
@@ -195,7 +197,8 @@ def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed:
     terms = {
         "l2d": reprojection_l1(setup.camera.project_torch(fit), observed, weights, setup.px_to_unit).mean(),
         "l3d": prediction_consistency(rotations, predicted_rotations, frame_weights).mean(),
-        "lsm": smoothness(fit[:, :NUM_JOINT_KEYPOINTS], unit, config.smoothness, fit[:, HIP_POINTS].mean(dim=1)).sum() / frames,
+        "lsm": smoothness(fit[:, :NUM_JOINT_KEYPOINTS], unit, config.smoothness, fit[:, HIP_POINTS].mean(dim=1),
+                          _held_ankles(setup.contacts, fit)).sum() / frames,
         "ground": ground_penetration(corners, unit, ground).mean(),
         "contact": torch.zeros((), dtype=fit.dtype),
         "slide": torch.zeros((), dtype=fit.dtype),
@@ -212,6 +215,18 @@ def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed:
             terms["balance"] = static_balance(com[0], fit[:, HEEL_POINTS], fit[:, TOE_POINTS], contacts, unit,
                                               config.balance_margin_m).mean()
     return terms
+
+
+def _held_ankles(contacts: np.ndarray | None, fit: torch.Tensor) -> torch.Tensor | None:
+    """(T - 1, NUM_JOINT_KEYPOINTS): 1 at the ankle of a foot down at both frames of a pair (the
+    "stance" smoothness charges its own displacement there); None without contacts."""
+    if contacts is None:
+        return None
+    down = torch.as_tensor(np.asarray(contacts, bool), dtype=fit.dtype)
+    both = down[1:] * down[:-1]  # (T - 1, 2), CONTACT_FEET order
+    held = torch.zeros((fit.shape[0] - 1, NUM_JOINT_KEYPOINTS), dtype=fit.dtype)
+    held[:, ANKLE_POINTS] = both
+    return held
 
 
 def total_loss(terms: dict, config: ReconstructionConfig) -> torch.Tensor:

@@ -111,3 +111,12 @@ def test_contacts_on_the_real_video_agree_with_the_markers(models_dir):
     # measured with the shipped model: 0.815 (cam02..04: 0.47, 0.895, 0.905); the model trained
     # without held poses scored 0.70 (0.55, 0.80, 0.87); always "down" scores 0.59
     assert accuracy.mean() > 0.75, f"right {accuracy[0]:.2f}, left {accuracy[1]:.2f}"
+
+
+def test_contacts_train_refuses_an_unknown_held_out_clip(tmp_path, capsys):
+    from services.cli import main
+
+    assert main(["contacts-train", "--out", str(tmp_path / "net"), "--held-out", "run,jogging"]) == 2
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "--held-out" in line and "jogging is not one" in line
+    assert not (tmp_path / "net").exists()

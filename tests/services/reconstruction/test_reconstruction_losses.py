@@ -97,14 +97,27 @@ def test_lsm_is_zero_for_a_constant_pose_and_squares_displacements():
     assert torch.allclose(smoothness(moving, 0.01), torch.full((5,), 4.0 * NUM_JOINT_KEYPOINTS, dtype=torch.float64))
 
 
-def test_the_body_smoothness_leaves_a_steady_travel_free_and_charges_the_body_and_changes_of_pace():
-    """A run across the view: SFV's l_sm charges the travel itself, "body" and "acceleration" do not."""
+def _still_joints() -> torch.Tensor:
+    """(6, J, 3) one random pose's joints held for six frames."""
     params = random_params(1, seed=3)
     with torch.no_grad():
         fit, _ = body_points(params.root_pos, params.root_quat(), params.joint_quats())
-    still = fit.expand(6, -1, -1)[:, :NUM_JOINT_KEYPOINTS]
-    hips = lambda points: points[:, [JOINT_KEYPOINTS.index("RHip"), JOINT_KEYPOINTS.index("LHip")]].mean(dim=1)  # noqa: E731
-    steady = still + torch.arange(6, dtype=torch.float64)[:, None, None] * torch.tensor([0.1, 0.0, 0.0], dtype=torch.float64)
+    return fit.expand(6, -1, -1)[:, :NUM_JOINT_KEYPOINTS]
+
+
+def _travelling(still: torch.Tensor) -> torch.Tensor:
+    """The same pose carried 10 cm along x each frame."""
+    return still + torch.arange(6, dtype=torch.float64)[:, None, None] * torch.tensor([0.1, 0.0, 0.0], dtype=torch.float64)
+
+
+def hips(points: torch.Tensor) -> torch.Tensor:
+    return points[:, [JOINT_KEYPOINTS.index("RHip"), JOINT_KEYPOINTS.index("LHip")]].mean(dim=1)
+
+
+def test_the_body_smoothness_leaves_a_steady_travel_free_and_charges_the_body_and_changes_of_pace():
+    """A run across the view: SFV's l_sm charges the travel itself, "body" and "acceleration" do not."""
+    still = _still_joints()
+    steady = _travelling(still)
     assert smoothness(steady, 0.01, "displacement").min() > 0.0
     assert smoothness(steady, 0.01, "body", hips(steady)).abs().max() < 1e-9
     assert smoothness(steady, 0.01, "acceleration").abs().max() < 1e-9
@@ -122,6 +135,24 @@ def test_the_body_smoothness_leaves_a_steady_travel_free_and_charges_the_body_an
     assert torch.allclose(lsm[1:3], torch.full((2,), 9.0 * NUM_JOINT_KEYPOINTS, dtype=torch.float64))
     with pytest.raises(ValueError, match="smoothness mode"):
         smoothness(still, 0.01, "speed")
+
+
+def test_the_stance_smoothness_leaves_a_planted_leg_to_the_slide_term():
+    """A body travelling over a planted foot: "body" charges the foot's motion about the hips at
+    the body's speed; "stance" charges a held joint for its own motion, and the rest as "body"."""
+    still = _still_joints()
+    travel = _travelling(still)
+    ankle = JOINT_KEYPOINTS.index("RAnkle")
+    travel[:, ankle] = still[:, ankle]  # the right ankle stays put while the body passes over it
+    held = torch.zeros((5, NUM_JOINT_KEYPOINTS), dtype=torch.float64)
+    held[:, ankle] = 1.0
+    body = smoothness(travel, 0.01, "body", hips(travel))
+    assert torch.allclose(body, torch.full((4,), 100.0, dtype=torch.float64))  # 10 cm per frame about the hips, squared
+    assert smoothness(travel, 0.01, "stance", hips(travel), held).abs().max() < 1e-9
+    assert torch.allclose(smoothness(travel, 0.01, "stance", hips(travel)), body)  # nothing held: "body"
+    dragged = _travelling(still)
+    assert smoothness(dragged, 0.01, "body", hips(dragged)).abs().max() < 1e-9  # an ankle dragged along is free for "body"
+    assert torch.allclose(smoothness(dragged, 0.01, "stance", hips(dragged), held), torch.full((4,), 100.0, dtype=torch.float64))
 
 
 def test_ground_penalty_counts_only_points_below_the_ground():
