@@ -8,7 +8,8 @@ does it (`services/contacts/video_motion.py`), once per smoothness mode and weig
 (`ReconstructionConfig.smoothness`, `w_smooth`), and scored against the markers of the person
 followed as `focal_effect.py` scores it (PA-MPJPE, MPJPE, acceleration error, reprojection). Each
 `--extra` pose track (a video without markers: a run, a walk) gets its reprojection error (mean,
-first and last five frames), its root path's length and median speed.
+first and last five frames), its root path's length and median speed, and its stance ankles'
+horizontal speed (the feet its contacts hold down).
 """
 from __future__ import annotations
 
@@ -43,7 +44,20 @@ def path_figures(motion) -> dict:
     speed = np.linalg.norm(np.diff(root, axis=0), axis=1) * float(motion.fps)
     return {"reprojection_px": round(float(error.mean()), 1), "first5_px": round(float(error[:5].mean()), 1),
             "last5_px": round(float(error[-5:].mean()), 1), "path_m": round(float(np.linalg.norm(root[-1, :2] - root[0, :2])), 2),
-            "median_speed_m_s": round(float(np.median(speed)), 2)}
+            "median_speed_m_s": round(float(np.median(speed)), 2), "stance_ankle_m_s": stance_ankle_speed(motion)}
+
+
+def stance_ankle_speed(motion) -> float | None:
+    """Mean horizontal speed (m/s) of the ankles of the reconstruction (`keypoints3d`) over the
+    frame pairs in which the contacts it was fitted to have that foot down at both frames."""
+    if "contacts" not in motion.extras:
+        return None
+    names = [str(n) for n in motion.extras["keypoint_names"]]
+    ankles = np.asarray(motion.extras["keypoints3d"])[:, [names.index("RAnkle"), names.index("LAnkle")], :2]
+    down = np.asarray(motion.extras["contacts"], bool)
+    held = down[1:] & down[:-1]
+    speed = np.linalg.norm(np.diff(ankles, axis=0), axis=-1) * float(motion.fps)
+    return round(float(speed[held].mean()), 2) if held.any() else None
 
 
 def main(argv: list[str] | None = None) -> int:
