@@ -19,7 +19,6 @@ walker's missed support, `support.py`, as `sfv pipeline` has them). Ground truth
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import sys
 from pathlib import Path
@@ -47,10 +46,6 @@ LABELLED = {
         "left": [[14, 20]],
     },
 }
-
-
-def sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def scored(motion, track, estimator, truth: np.ndarray) -> dict:
@@ -111,7 +106,9 @@ def trial_rows(tracks: Path | None, estimator, trials: list[str]) -> list[dict]:
 def labelled_row(video: Path, track_path: Path, estimator) -> dict:
     from services.pose import PoseTrack
 
-    labels = LABELLED.get(sha256(video)[:8])
+    from services.pose.models import sha256_of
+
+    labels = LABELLED.get(sha256_of(video.read_bytes())[:8])
     if labels is None:
         raise SystemExit(f"{video}: no labels for this file (known: {', '.join(LABELLED)})")
     track = PoseTrack.load(track_path)

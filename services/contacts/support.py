@@ -26,6 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from services.reconstruction.plausibility import flag_runs
+
 MAX_GAP_S = 0.25
 FLIGHT_PACE = 1.3  # keypoint spans per second: about 2 m/s
 WINDOW_S = 0.2
@@ -56,7 +58,7 @@ def fill_missed_support(flags: np.ndarray, probabilities: np.ndarray, pace: np.n
     longest = int(np.floor(MAX_GAP_S * fps + 1e-9))
     reach = int(round(WINDOW_S * fps))
     filled = []
-    for first, last in _runs(unsupported):
+    for first, last in flag_runs(unsupported):
         if last - first + 1 > longest:
             continue
         around = pace[max(0, first - reach): last + reach + 1]
@@ -67,7 +69,3 @@ def fill_missed_support(flags: np.ndarray, probabilities: np.ndarray, pace: np.n
         filled.append((int(first), int(last)))
     return flags, filled
 
-
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
-    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1))

@@ -130,7 +130,7 @@ def off_path_frames(root_pos: np.ndarray, fps: float, residual: np.ndarray | Non
     off = residual > OFF_PATH_M
     near = residual > OFF_PATH_M / 3  # an excursion's own edges: the repair's anchors must be on the path
     grown = off.copy()
-    for first, last in _runs(near):
+    for first, last in flag_runs(near):
         grown[first:last + 1] |= off[first:last + 1].any()
     return grown
 
@@ -139,7 +139,7 @@ def bad_frames(flagged: np.ndarray) -> np.ndarray:
     """(T,) bool: frames to re-place, from (T-1,) flagged steps (see the module docstring)."""
     steps = len(flagged)
     bad = np.zeros(steps + 1, bool)
-    for first, last in _runs(flagged):
+    for first, last in flag_runs(flagged):
         touched = np.arange(first + 1, last + 1)  # frames with flagged steps on both sides
         if first == 0:
             touched = np.arange(0, last + 1)
@@ -153,7 +153,8 @@ def bad_frames(flagged: np.ndarray) -> np.ndarray:
     return bad
 
 
-def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
+def flag_runs(flags: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) of each run of True in a (T,) bool array, both inclusive."""
     edges = np.diff(np.concatenate(([0], flags.astype(np.int8), [0])))
     return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1))
 
@@ -297,5 +298,5 @@ def _findings(flags, steps, speed, residual, off_path) -> list[str]:
 
 
 def _ranges(frames: np.ndarray) -> str:
-    runs = _runs(np.isin(np.arange(frames.max() + 1), frames))
+    runs = flag_runs(np.isin(np.arange(frames.max() + 1), frames))
     return ", ".join(f"{a}" if a == b else f"{a}-{b}" for a, b in runs)

@@ -97,6 +97,7 @@ class Setup:
     frame_weights: np.ndarray  # (T,) w_t = exp(-delta_t)
     px_to_unit: float  # pixels -> image units (per mille of the image height)
     contacts: np.ndarray | None = None  # (T, 2) feet down (CONTACT_FEET order); None: no contact terms
+    held: torch.Tensor | None = None  # (T - 1, NUM_JOINT_KEYPOINTS) the planted ankles (`held_ankles`); None without contacts
 
 
 def check_track(track, source: str) -> None:
@@ -181,7 +182,7 @@ def initialise(obs: ObservedPoints, image_size: tuple[int, int], config: Reconst
     with torch.no_grad():
         predicted.root_pos[:, 2] -= ground
     camera = camera.shifted(np.array([0.0, 0.0, -ground]))
-    return Setup(camera, predicted, weights, frame_weights, px_to_unit, contacts)
+    return Setup(camera, predicted, weights, frame_weights, px_to_unit, contacts, held_ankles(contacts, dtype))
 
 
 def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed: torch.Tensor, weights: torch.Tensor,
@@ -198,7 +199,7 @@ def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed:
         "l2d": reprojection_l1(setup.camera.project_torch(fit), observed, weights, setup.px_to_unit).mean(),
         "l3d": prediction_consistency(rotations, predicted_rotations, frame_weights).mean(),
         "lsm": smoothness(fit[:, :NUM_JOINT_KEYPOINTS], unit, config.smoothness, fit[:, HIP_POINTS].mean(dim=1),
-                          _held_ankles(setup.contacts, fit)).sum() / frames,
+                          setup.held).sum() / frames,
         "ground": ground_penetration(corners, unit, ground).mean(),
         "contact": torch.zeros((), dtype=fit.dtype),
         "slide": torch.zeros((), dtype=fit.dtype),
@@ -217,14 +218,15 @@ def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed:
     return terms
 
 
-def _held_ankles(contacts: np.ndarray | None, fit: torch.Tensor) -> torch.Tensor | None:
+def held_ankles(contacts: np.ndarray | None, dtype: torch.dtype) -> torch.Tensor | None:
     """(T - 1, NUM_JOINT_KEYPOINTS): 1 at the ankle of a foot down at both frames of a pair (the
-    "stance" smoothness charges its own displacement there); None without contacts."""
+    "stance" smoothness charges its own displacement there); None without contacts. Made once
+    per reconstruction: the contacts do not change while it is optimised."""
     if contacts is None:
         return None
-    down = torch.as_tensor(np.asarray(contacts, bool), dtype=fit.dtype)
+    down = torch.as_tensor(np.asarray(contacts, bool), dtype=dtype)
     both = down[1:] * down[:-1]  # (T - 1, 2), CONTACT_FEET order
-    held = torch.zeros((fit.shape[0] - 1, NUM_JOINT_KEYPOINTS), dtype=fit.dtype)
+    held = torch.zeros((len(down) - 1, NUM_JOINT_KEYPOINTS), dtype=dtype)
     held[:, ANKLE_POINTS] = both
     return held
 
