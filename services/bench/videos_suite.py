@@ -23,7 +23,8 @@ that already holds report.json is measured as it is, one with a finished trainin
   used (mean and max, fraction of body weight; null when trained without one) and the same episode
   with that help at zero (`without_residual_force`), minutes of the run;
 - the frame strip: the run's overlay_strip.png beside the results as `<out>_<name>.png`, at most
-  STRIP_WIDTH px wide (the run's own is 1632 px and 1.1 MB).
+  STRIP_WIDTH px wide (the run's own is 1632 px and 1.1 MB), and where the controller had a help
+  its strip without it as `<out>_<name>_without_help.png`.
 """
 from __future__ import annotations
 
@@ -150,6 +151,10 @@ def video_row(video: Path, out: Path, minutes: float, strip: Path) -> dict:
     simulated = load_motion(str(out / "simulated.npz"))
     start = int(motion.extras.get("video_start_frame", 0))
     copy_strip(out / "overlay_strip.png", strip)
+    unaided = None
+    if (out / "overlay_strip_without_help.png").is_file():  # the body alone, where the run had a help
+        unaided = strip.with_name(f"{strip.stem}_without_help.png")
+        copy_strip(out / "overlay_strip_without_help.png", unaided)
     return {
         "video": str(video), "licence": licence(video), "run": str(out), "minutes": minutes,
         "subject": {"person": int(motion.extras.get("person_id", 0)), "frames": [start, start + motion.num_frames - 1],
@@ -166,6 +171,7 @@ def video_row(video: Path, out: Path, minutes: float, strip: Path) -> dict:
         "root_relative_joint_error_m": report["root_relative_joint_error_m"]["mean"],
         "world_aligned_joint_error_m": (report.get("world_aligned_joint_error_m") or {}).get("mean"),
         "strip": str(strip),
+        "strip_without_help": None if unaided is None else str(unaided),
     }
 
 

@@ -11,6 +11,8 @@
                        both through the reconstruction's camera, captions with frame and fall state,
                        report.json's outcome line under every frame
     overlay_strip.png  the simulated humanoid over video frames through that camera
+    overlay_strip_without_help.png  (a controller with a residual root wrench) the same strip of the
+                       episode with the wrench at zero: where the body alone falls
     report.json        fall, return, joint error, skating, penetration, reprojection (`report.py`);
                        for a controller with a residual root wrench, `without_residual_force`:
                        the same first-frame episode with the wrench at zero (fell, when, return)
@@ -26,6 +28,7 @@ from learner.errors import SfvError
 
 MOTION_FILE, BVH_FILE, VIDEO_FILE, STRIP_FILE, REPORT_FILE = (
     "simulated.npz", "simulated.bvh", "video.mp4", "overlay_strip.png", "report.json")
+UNAIDED_STRIP_FILE = "overlay_strip_without_help.png"
 # Extras of the reconstruction the simulated motion keeps: where the camera was, where the clip starts.
 KEPT_EXTRAS = ("camera_rotation", "camera_position", "camera_intrinsics", "image_size", "video_start_frame", "person_id")
 
@@ -36,15 +39,15 @@ def _bar(progress: bool, total: int, desc: str):
     return tqdm(total=total, desc=desc, unit="frame", disable=not progress, dynamic_ncols=True, file=sys.stderr)
 
 
-def _unaided(source, reconstruction) -> dict:
+def _unaided(source, reconstruction):
     """The same controller from the first frame with its residual root wrench at zero: whether
-    it completes the clip by the body's own joints (one line and the strict figures)."""
+    it completes the clip by the body's own joints (the strict figures), and the rollout."""
     from services.pipeline.rollout import WithoutWrench, first_frame_rollout
     from services.training.evaluation import make_eval_env
 
     alone = first_frame_rollout(WithoutWrench(source.policy), make_eval_env(reconstruction, source.env_config))
     return {"fell": alone.fell, "fell_at_s": None if alone.fell_at_s is None else round(alone.fell_at_s, 3),
-            "normalized_return": round(alone.normalized_return, 4)}
+            "normalized_return": round(alone.normalized_return, 4)}, alone
 
 
 def _help_clause(used: dict | None, alone: dict) -> str:
@@ -85,9 +88,10 @@ def finish_static_run(out: Path, video: Path, motion_path: Path, run_dir: Path, 
     report, sim, _ = build_report(rollout, env.humanoid, reconstruction)
     if env.core.residual is not None and env.core.residual.strength == 0:  # the help decayed to nothing in training
         report["outcome"] += "; trained with a residual root force that decayed to zero: the body alone"
-    elif env.core.residual is not None:
+    alone = None
+    if env.core.residual is not None and env.core.residual.strength != 0:
         with threadpool_limits(1, user_api="blas"):
-            report["without_residual_force"] = _unaided(source, reconstruction)
+            report["without_residual_force"], alone = _unaided(source, reconstruction)
         report["outcome"] += _help_clause(report["residual_force_body_weight"], report["without_residual_force"])
     report = {"video": str(video), "motion": str(motion_path), "run": str(run_dir), "checkpoint": source.checkpoint,
               "video_start_frame": first, **report}
@@ -110,6 +114,10 @@ def finish_static_run(out: Path, video: Path, motion_path: Path, run_dir: Path, 
     files["overlay_strip"] = str(overlay_strip(rollout, reconstruction, env.humanoid, video, out / STRIP_FILE, first,
                                                strip_frames, height))
     say(f"simulated character over the video: {files['overlay_strip']}")
+    if alone is not None:
+        files["overlay_strip_without_help"] = str(overlay_strip(alone, reconstruction, env.humanoid, video,
+                                                                out / UNAIDED_STRIP_FILE, first, strip_frames, height))
+        say(f"the same without the residual root force: {files['overlay_strip_without_help']}")
     report["files"] = dict(files, report=str(out / REPORT_FILE))
     atomic_write_json(out / REPORT_FILE, report)
     error, px = report["joint_position_error_m"], report["reprojection_error_px"]["simulated"]

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from services.reconstruction.losses import SMOOTHNESS_MODES
+from services.reconstruction.losses import BALANCE_MODES, SMOOTHNESS_MODES
 
 
 @dataclass(frozen=True)
@@ -39,9 +39,10 @@ class ReconstructionConfig:
                 "in which it is down at both (cam01: 100 halves the robust term's 2D cost of a squared one, 11.3 vs "
                 "12.2 px, at the same skating, 0.49 m/s)"})
     w_balance: float = field(default=50.0, metadata={
-        "help": "weight of the static-balance term: the horizontal distance (length units, Charbonnier) of the "
-                "whole-body centre of mass beyond balance_margin_m from the support of the contact feet, in frames "
-                "where at least one is down; needs the contact terms (w_contact > 0); 0: off, today's fit exactly. "
+        "help": "weight of the balance term (`balance`): the horizontal distance (length units, Charbonnier) of the "
+                "zero-moment point or the whole-body centre of mass beyond balance_margin_m from the support of the "
+                "contact feet, in frames where at least one is down; needs the contact terms (w_contact > 0); 0: off. "
+                "Measured with the static point: "
                 "Pose2Sim, 4 cameras: 50 brings the centre of mass from 13-17 to 8-11 cm of the support (mean over "
                 "contact frames) for +0.7 to +1.5 px of reprojection error and -1.1 to +0.9 mm PA-MPJPE; 100 gets "
                 "5-8 cm for +1.4 to +3.2 px (bench/results/reconstruction_balance.json)"})
@@ -49,6 +50,19 @@ class ReconstructionConfig:
         "help": "weight of the squared heel-to-toe height (length units) of a foot the contact estimator says is down: "
                 "it stands on its sole. 10: stance tilt 6-10 -> 1.2-2.8 cm, PA-MPJPE -0.5 to +1.6 mm; balancing cam01's "
                 "controller then completes without help (docs/video.md)"})
+    balance: str = field(default="dynamic", metadata={"choices": BALANCE_MODES, "help":
+        "the point the balance term keeps over the support (services/reconstruction/losses.py): dynamic, the "
+        "zero-moment point, where the ground's reaction must act for the centre of mass to accelerate as the motion "
+        "says (the eight Pose2Sim cameras: 43 -> 5 cm from the support, median; PA-MPJPE +1.0 mm, reprojection +0.4 "
+        "px; balancing cam02's controller then completes without help; docs/video.md cause 19); static, the centre "
+        "of mass itself, which leaves its shaking free (DeepMimic's walk accelerates it 0.6 m/s^2 sideways, the "
+        "videos' references 2.8-6.9)"})
+    balance_flight: bool = field(default=True, metadata={
+        "help": "with the dynamic balance term, also charge a frame with no foot down for its centre of mass's "
+                "departure from a free fall (services/reconstruction/losses.py flight_deviation; a 4 m/s run's flight "
+                "92 -> 24 cm, its controller's help 34 -> 24 % of body weight)"})
+    balance_window_s: float = field(default=0.1, metadata={
+        "help": "seconds either side of a frame over which the dynamic balance term takes the centre of mass's acceleration"})
     balance_margin_m: float = field(default=0.05, metadata={
         "help": "distance (m) from the support within which the centre of mass costs nothing in the balance term"})
     # --- optimiser
@@ -88,3 +102,7 @@ class ReconstructionConfig:
     def __post_init__(self):
         if self.smoothness not in SMOOTHNESS_MODES:
             raise ValueError(f"smoothness must be one of {', '.join(SMOOTHNESS_MODES)}, got {self.smoothness!r}")
+        if self.balance not in BALANCE_MODES:
+            raise ValueError(f"balance must be one of {', '.join(BALANCE_MODES)}, got {self.balance!r}")
+        if not self.balance_window_s > 0:
+            raise ValueError(f"balance_window_s must be positive, got {self.balance_window_s}")

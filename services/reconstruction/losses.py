@@ -20,7 +20,13 @@ the whole-body centre of mass from the support, beyond a margin m, pays a Charbo
     lbalance = sum_t [any c_t] rho(relu(d_t - m))
 
 the support being a contact foot's heel-toe segment, or with both feet down the convex hull of
-their heels and toes (horizontal: the ground is z = const). SFV's loss and the contact terms
+their heels and toes (horizontal: the ground is z = const). Its dynamic form (`dynamic_balance`,
+`ReconstructionConfig.balance`) charges the zero-moment point instead of the centre of mass: where
+the ground's reaction must act for the centre of mass to accelerate as the motion says,
+
+    zmp_t = c_t,xy - (c_t,z - g0) / (g + a_t,z) a_t,xy,   a_t the centre of mass's acceleration,
+
+which is the static term's point when the body does not accelerate. SFV's loss and the contact terms
 leave the centre of mass 13-17 cm (mean over contact frames) from the support on the Pose2Sim
 cameras, where the markers' is 3 cm; w_balance 50 brings it to 8-11 cm (+0.7-1.5 px, PA-MPJPE
 -1.1 to +0.9 mm), but pure PD tracking from the first frame gains little (29-32 -> 26-33 of 49
@@ -167,6 +173,63 @@ def support_distance(com_xy: torch.Tensor, heels_xy: torch.Tensor, toes_xy: torc
     two_feet = torch.where(inside, torch.zeros_like(one_foot), edges.min(dim=-1).values)
     distance = torch.where(down.all(dim=-1), two_feet, one_foot)
     return torch.where(down.any(dim=-1), distance, torch.zeros_like(distance))
+
+
+BALANCE_MODES = ("static", "dynamic")
+GRAVITY = 9.81
+# The zero-moment point's lever h / (g + a_z) is bounded as if the body fell at no more than
+# 0.7 g: a frame the contacts call down that the motion says falls freely would divide by ~0.
+MIN_SUPPORT_ACCEL = 0.3 * GRAVITY
+
+
+def centre_acceleration(com: torch.Tensor, fps: float, half_window: int) -> torch.Tensor:
+    """(T - 2k, 3) central second difference of the centre of mass (T, 3), metres, over k =
+    `half_window` frames either side: m/s^2 at frames k .. T - k - 1."""
+    k = half_window
+    return (com[2 * k:] - 2.0 * com[k:-k] + com[:-2 * k]) * (fps / k) ** 2
+
+
+def zero_moment_point(com: torch.Tensor, acceleration: torch.Tensor, ground) -> torch.Tensor:
+    """(T, 2) the point on the ground (height `ground`) where the reaction must act for the centre of
+    mass (T, 3) to accelerate as `acceleration` (T, 3) says, the body's spin about its centre of mass
+    left out (the linear inverted pendulum's zero-moment point, with the height free)."""
+    height = com[:, 2] - ground
+    lever = height / (GRAVITY + acceleration[:, 2]).clamp(min=MIN_SUPPORT_ACCEL)
+    return com[:, :2] - lever.unsqueeze(-1) * acceleration[:, :2]
+
+
+def flight_deviation(com: torch.Tensor, acceleration: torch.Tensor, ground) -> torch.Tensor:
+    """(T,) metres: how far from falling freely the centre of mass (T, 3) moves, as the lever the
+    force it needs would have, |a - g| (c_z - g0) / g (for a sideways push the same length as
+    `zero_moment_point`'s offset). A body with no foot down has nothing to push on."""
+    gravity = torch.tensor([0.0, 0.0, -GRAVITY], dtype=com.dtype)
+    return (acceleration - gravity).norm(dim=-1) * (com[:, 2] - ground) / GRAVITY
+
+
+def dynamic_balance(com: torch.Tensor, heels: torch.Tensor, toes: torch.Tensor, contacts: torch.Tensor, unit_m: float,
+                    margin_m: float, fps: float, half_window: int, ground=0.0, smooth: float = 1.0,
+                    flight: bool = False) -> torch.Tensor:
+    """(T,) rho(relu(d - margin)) as `static_balance`, d the zero-moment point's horizontal distance from
+    the support (`zero_moment_point`, the acceleration over `half_window` frames either side); the first
+    and last `half_window` frames, which have no central difference, keep the centre of mass itself.
+    With `flight`, a frame with no foot down is charged `flight_deviation` beyond the margin (else nothing).
+    Measured on the references (`bench/scripts/dynamic_balance.py`): DeepMimic's walk keeps its
+    zero-moment point 3 cm from the support (median over contact frames, 0.1 s either side), a
+    video's reconstruction 26-63 cm, its centre of mass accelerating sideways 5-12 times as hard."""
+    point = com[:, :2]
+    k = half_window
+    down = (contacts > 0.5).any(dim=-1)
+    airborne = torch.zeros_like(com[:, 0])
+    if len(com) > 2 * k:
+        acceleration = centre_acceleration(com, fps, k)
+        zmp = zero_moment_point(com[k:-k], acceleration, ground)
+        point = torch.cat((point[:k], zmp, point[-k:]))
+        if flight:
+            airborne = torch.cat((airborne[:k], flight_deviation(com[k:-k], acceleration, ground), airborne[-k:]))
+    distance = support_distance(point, heels[..., :2], toes[..., :2], contacts)
+    distance = torch.where(down, distance, airborne)
+    excess = torch.relu(distance - margin_m) / unit_m
+    return (excess * excess + smooth * smooth).sqrt() - smooth
 
 
 def static_balance(com: torch.Tensor, heels: torch.Tensor, toes: torch.Tensor, contacts: torch.Tensor, unit_m: float,

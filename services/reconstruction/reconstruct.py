@@ -11,7 +11,8 @@
 3. All frames are optimised together with Adam on
        l_rec = 10 l2D + 100 l3D + 25 lsm  (+ 100 x ground penetration)
              (+ 100 lcontact + 100 lslide where the foot-contact estimator says a foot is down)
-             (+ w_balance lbalance: the centre of mass over the contact feet, `losses.static_balance`)
+             (+ w_balance lbalance: the zero-moment point over the contact feet, and a body with no
+                foot down in free fall, `losses.dynamic_balance`; `balance` static: the centre of mass)
    over the per-frame root positions, root rotations and joint exponential coordinates (and,
    with contacts, the ground height: `contact_fit.py`), joints clamped to their limits after
    every step (`losses.py`). Units, which decide how
@@ -72,6 +73,7 @@ from services.reconstruction.losses import (
     reprojection_l1,
     smoothness,
     stance_tilt,
+    dynamic_balance,
     static_balance,
 )
 
@@ -98,6 +100,7 @@ class Setup:
     px_to_unit: float  # pixels -> image units (per mille of the image height)
     contacts: np.ndarray | None = None  # (T, 2) feet down (CONTACT_FEET order); None: no contact terms
     held: torch.Tensor | None = None  # (T - 1, NUM_JOINT_KEYPOINTS) the planted ankles (`held_ankles`); None without contacts
+    fps: float = 30.0  # frames per second of the track (the dynamic balance term's accelerations)
 
 
 def check_track(track, source: str) -> None:
@@ -158,7 +161,7 @@ def world_rotation(obs: ObservedPoints, config: ReconstructionConfig, dtype: tor
 
 
 def initialise(obs: ObservedPoints, image_size: tuple[int, int], config: ReconstructionConfig,
-               dtype: torch.dtype, contacts: np.ndarray | None = None) -> Setup:
+               dtype: torch.dtype, contacts: np.ndarray | None = None, fps: float = 30.0) -> Setup:
     width, height = image_size
     focal = default_focal(image_size, config.focal_length_px)
     principal = np.array([(width - 1) / 2.0, (height - 1) / 2.0])
@@ -182,7 +185,7 @@ def initialise(obs: ObservedPoints, image_size: tuple[int, int], config: Reconst
     with torch.no_grad():
         predicted.root_pos[:, 2] -= ground
     camera = camera.shifted(np.array([0.0, 0.0, -ground]))
-    return Setup(camera, predicted, weights, frame_weights, px_to_unit, contacts, held_ankles(contacts, dtype))
+    return Setup(camera, predicted, weights, frame_weights, px_to_unit, contacts, held_ankles(contacts, dtype), float(fps))
 
 
 def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed: torch.Tensor, weights: torch.Tensor,
@@ -213,9 +216,21 @@ def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed:
         if config.w_flat > 0:
             terms["flat"] = stance_tilt(fit[:, HEEL_POINTS], fit[:, TOE_POINTS], contacts, unit).mean()
         if balance:
-            terms["balance"] = static_balance(com[0], fit[:, HEEL_POINTS], fit[:, TOE_POINTS], contacts, unit,
-                                              config.balance_margin_m).mean()
+            terms["balance"] = balance_term(com[0], fit[:, HEEL_POINTS], fit[:, TOE_POINTS], contacts, ground, setup.fps,
+                                            config).mean()
     return terms
+
+
+def balance_term(com: torch.Tensor, heels: torch.Tensor, toes: torch.Tensor, contacts: torch.Tensor, ground: torch.Tensor,
+                 fps: float, config: ReconstructionConfig) -> torch.Tensor:
+    """(T,) the balance term of `config.balance`: the centre of mass (static) or the zero-moment point
+    (dynamic, the acceleration over `balance_window_s` either side) beyond the margin from the support."""
+    unit = config.length_unit_m
+    if config.balance == "static":
+        return static_balance(com, heels, toes, contacts, unit, config.balance_margin_m)
+    half_window = max(1, int(round(config.balance_window_s * fps)))
+    return dynamic_balance(com, heels, toes, contacts, unit, config.balance_margin_m, fps, half_window, ground[0],
+                           flight=config.balance_flight)
 
 
 def held_ankles(contacts: np.ndarray | None, dtype: torch.dtype) -> torch.Tensor | None:
@@ -296,7 +311,7 @@ def reconstruct_track(track, config: ReconstructionConfig | None = None, name: s
         contact_extras = {"contact_probability": np.asarray(probabilities), "contacts": np.asarray(flags, bool),
                           "contact_feet": np.array(CONTACT_FEET)}
         fitted = contact_extras["contacts"] if config.w_contact > 0 and contact_extras["contacts"].any() else None
-    setup = initialise(obs, tuple(track.image_size), config, dtype, fitted)
+    setup = initialise(obs, tuple(track.image_size), config, dtype, fitted, float(track.fps))
     params, ground, terms = optimise(setup, obs, config, dtype)
     motion = build_motion(name, float(track.fps), params, ground, setup, obs, raw, flips, terms)
     motion.extras.update(contact_extras)

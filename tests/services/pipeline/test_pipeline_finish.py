@@ -62,7 +62,7 @@ def trained(tmp_path_factory):
     frames = [np.full((IMAGE[1], IMAGE[0], 3), 40 + 2 * k, np.uint8) for k in range(FRAMES)]
     video = write_clip(root / "clip.avi", frames, fps=FPS)
     config = TrainConfig(motion=str(motion_path), out=str(root / "train"), workers=1, envs_per_worker=2, init="rsi",
-                         samples=256, runner="in_process", eval_every=0, env=EnvConfig())
+                         samples=256, runner="in_process", eval_every=0, env=EnvConfig(residual_force=0.5))  # the pipeline's help
     config.ppo.batch_size, config.ppo.minibatch_size = 128, 128
     config.ppo.policy_hidden, config.ppo.value_hidden = (32,), (16,)
     Trainer(config, progress=False).run()
@@ -88,10 +88,11 @@ def finished(trained):
 @pytest.mark.slow
 def test_finishing_writes_the_files_and_a_report_that_adds_up(finished, trained):
     root, report, lines = finished
-    names = {"simulated.npz", "simulated.bvh", "video.mp4", "overlay_strip.png", "report.json"}
+    names = {"simulated.npz", "simulated.bvh", "video.mp4", "overlay_strip.png", "overlay_strip_without_help.png", "report.json"}
     assert names <= {p.name for p in root.iterdir()}
     assert not [p for p in root.iterdir() if p.name.startswith(".")]  # no temp file left behind
-    assert len(lines) == 7  # one result line per file, the outcome, then the summary as JSON
+    assert len(lines) == 8  # one result line per file, the outcome, then the summary as JSON
+    assert "without it: " in report["outcome"] and set(report["without_residual_force"]) == {"fell", "fell_at_s", "normalized_return"}
     assert lines[-2] == report["outcome"] and report["outcome"].startswith(("completed: ", "fell at "))
     summary = json.loads(lines[-1])
     assert summary["fell"] == report["fell"] and summary["files"] == report["files"]
@@ -155,6 +156,12 @@ def test_the_video_and_strip_have_the_expected_frames(finished):
     assert 20 <= band.shape[0] <= 120 and (band.max(axis=-1) > 128).mean() > 0.01
     strip = cv2.imread(str(root / "overlay_strip.png"))
     assert strip.shape[:2] == (480, 6 * 320)  # six frames
+    # The body alone: as many frames as its episode has (to its fall), at most six.
+    alone = report["without_residual_force"]
+    unaided = cv2.imread(str(root / "overlay_strip_without_help.png"))
+    assert unaided.shape[0] == 480 and unaided.shape[1] % 320 == 0 and 1 <= unaided.shape[1] // 320 <= 6
+    if not alone["fell"]:
+        assert unaided.shape[1] == 6 * 320
 
 
 @pytest.mark.slow
