@@ -38,6 +38,7 @@ import numpy as np
 from actors.character import quaternion as qn
 from actors.character.foot_contact import FOOT_LINKS, SOLE_CORNERS
 from actors.character.kinematics import forward_kinematics
+from services.reconstruction.plausibility import flag_runs
 
 GRAVITY = 9.81
 DOWN = 0.5  # a foot with contact confidence >= DOWN counts as down
@@ -136,9 +137,8 @@ def _stance_steps(steps: np.ndarray, weights: np.ndarray, dt: np.ndarray) -> tup
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """[start, end) of each run of True."""
-    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
-    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)))
+    """[start, end) of each run of True (`plausibility.flag_runs`' runs, the end exclusive)."""
+    return [(first, last + 1) for first, last in flag_runs(mask)]
 
 
 def _bridge_steps(steps: np.ndarray, stance: np.ndarray, dt: np.ndarray) -> np.ndarray:
