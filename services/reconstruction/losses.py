@@ -182,6 +182,13 @@ GRAVITY = 9.81
 MIN_SUPPORT_ACCEL = 0.3 * GRAVITY
 
 
+def beyond_margin(distance: torch.Tensor, unit_m: float, margin_m: float, smooth: float = 1.0) -> torch.Tensor:
+    """rho(relu(d - margin)) in length units, rho(e) = sqrt(e^2 + smooth^2) - smooth: quadratic near 0,
+    linear far out, so a foot wrongly called down pulls the body with a bounded force."""
+    excess = torch.relu(distance - margin_m) / unit_m
+    return (excess * excess + smooth * smooth).sqrt() - smooth
+
+
 def centre_acceleration(com: torch.Tensor, fps: float, half_window: int) -> torch.Tensor:
     """(T - 2k, 3) central second difference of the centre of mass (T, 3), metres, over k =
     `half_window` frames either side: m/s^2 at frames k .. T - k - 1."""
@@ -228,8 +235,7 @@ def dynamic_balance(com: torch.Tensor, heels: torch.Tensor, toes: torch.Tensor, 
             airborne = torch.cat((airborne[:k], flight_deviation(com[k:-k], acceleration, ground), airborne[-k:]))
     distance = support_distance(point, heels[..., :2], toes[..., :2], contacts)
     distance = torch.where(down, distance, airborne)
-    excess = torch.relu(distance - margin_m) / unit_m
-    return (excess * excess + smooth * smooth).sqrt() - smooth
+    return beyond_margin(distance, unit_m, margin_m, smooth)
 
 
 def static_balance(com: torch.Tensor, heels: torch.Tensor, toes: torch.Tensor, contacts: torch.Tensor, unit_m: float,
@@ -240,6 +246,5 @@ def static_balance(com: torch.Tensor, heels: torch.Tensor, toes: torch.Tensor, c
     foot the estimator wrongly calls down pulls the body with a bounded force); 0 in frames
     with no foot down."""
     distance = support_distance(com[..., :2], heels[..., :2], toes[..., :2], contacts)
-    excess = torch.relu(distance - margin_m) / unit_m
     down = (contacts > 0.5).any(dim=-1).to(com.dtype)
-    return down * ((excess * excess + smooth * smooth).sqrt() - smooth)
+    return down * beyond_margin(distance, unit_m, margin_m, smooth)
