@@ -12,7 +12,9 @@ have a foot down and whose acceleration (0.1 s either side) exists:
 
 - zmp_cm / zmp_over_5cm: the zero-moment point's median distance from the support, and the share of
   frames where it lies more than 5 cm out; static_cm: the centre of mass's own (what the static term
-  charges);
+  charges); body_zmp_cm / _p90_cm / _mean_cm: the whole body's zero-moment point (every link's mass
+  and acceleration, the spin about the centre of mass included; `whole_body_zero_moment_point`),
+  median, 90th percentile and mean;
 - com_accel_m_s2: the centre of mass's median horizontal acceleration;
 - flight_cm (frames with no foot down): the median departure from a free fall, as a lever
   (`losses.flight_deviation`);
@@ -23,7 +25,8 @@ have a foot down and whose acceleration (0.1 s either side) exists:
 
 Each pipeline run RUNS/<trial>_camNN/ with a `track.npz` (and each `--extra` track, a video without
 markers) is reconstructed as the pipeline does it (`services/contacts/video_motion.py`) once per
-MODE:WEIGHT (`ReconstructionConfig.balance`, `w_balance`; MODE `dynamic-flight` adds `balance_flight`). `--mocap` clips (contacts where a sole is
+MODE:WEIGHT (`ReconstructionConfig.balance`, `w_balance`; MODE `dynamic-flight` or `whole_body-flight` adds
+`balance_flight`). `--mocap` clips (contacts where a sole is
 within 4 cm of the clip's floor) show what a motion a body performed gives.
 """
 from __future__ import annotations
@@ -52,21 +55,30 @@ def balance_figures(motion, contacts: np.ndarray) -> dict:
     mass's horizontal acceleration, over the frames with a foot down and a central difference."""
     import torch
 
-    from services.reconstruction.body import body_points
-    from services.reconstruction.losses import centre_acceleration, flight_deviation, support_distance, zero_moment_point
+    from services.reconstruction.body import LINK_MASS_FRACTIONS, body_points
+    from services.reconstruction.losses import (
+        centre_acceleration,
+        flight_deviation,
+        support_distance,
+        whole_body_zero_moment_point,
+        zero_moment_point,
+    )
     from services.reconstruction.reconstruct import HEEL_POINTS, TOE_POINTS
 
     with torch.no_grad():
-        fit, _, com = body_points(torch.as_tensor(motion.root_pos), torch.as_tensor(motion.root_rot),
-                                  torch.as_tensor(motion.joint_rot), with_com=True)
-        fit, com = fit.double(), com.double()
+        fit, _, com, centres = body_points(torch.as_tensor(motion.root_pos), torch.as_tensor(motion.root_rot),
+                                           torch.as_tensor(motion.joint_rot), with_links=True)
+        fit, com, centres = fit.double(), com.double(), centres.double()
         k = max(1, int(round(WINDOW_S * float(motion.fps))))
         accel = centre_acceleration(com, float(motion.fps), k)
         zmp = zero_moment_point(com[k:-k], accel, 0.0)
+        body_zmp = whole_body_zero_moment_point(centres[k:-k], torch.as_tensor(LINK_MASS_FRACTIONS),
+                                                centre_acceleration(centres, float(motion.fps), k), 0.0)
         down = torch.as_tensor(np.asarray(contacts, float))
         heels, toes = fit[:, HEEL_POINTS, :2], fit[:, TOE_POINTS, :2]
         static = support_distance(com[:, :2], heels, toes, down).numpy()[k:-k]
         dynamic = support_distance(zmp, heels[k:-k], toes[k:-k], down[k:-k]).numpy()
+        whole = support_distance(body_zmp, heels[k:-k], toes[k:-k], down[k:-k]).numpy()
         flight = flight_deviation(com[k:-k], accel, 0.0).numpy()
     rows = np.asarray(contacts, bool)[k:-k].any(axis=-1)
     if not rows.any():
@@ -75,6 +87,9 @@ def balance_figures(motion, contacts: np.ndarray) -> dict:
     airborne = {"airborne_frames": int((~rows).sum()), "flight_cm": round(100 * float(np.median(flight[~rows])), 1)} if (~rows).any() else {}
     return {**airborne, "frames": int(rows.sum()), "zmp_cm": round(100 * float(np.median(dynamic[rows])), 1),
             "zmp_over_5cm": round(float((dynamic[rows] > 0.05).mean()), 2),
+            "body_zmp_cm": round(100 * float(np.median(whole[rows])), 1),
+            "body_zmp_p90_cm": round(100 * float(np.percentile(whole[rows], 90)), 1),
+            "body_zmp_mean_cm": round(100 * float(whole[rows].mean()), 1),
             "static_cm": round(100 * float(np.median(static[rows])), 1),
             "com_accel_m_s2": round(float(np.median(horizontal)), 2)}
 
@@ -153,6 +168,7 @@ def main(argv: list[str] | None = None) -> int:
                       **truth_hip_acceleration(video, motion)}
             cameras.setdefault(run.name, {})[f"{mode}:{weight:g}"] = result
             print(run.name, mode, weight, {k: result.get(k) for k in ("pa_mpjpe_mm", "accel_error_mm", "reprojection_px", "zmp_cm",
+                                                                       "body_zmp_cm", "body_zmp_p90_cm",
                                                                        "com_accel_m_s2", "hip_accel_m_s2", "true_hip_accel_m_s2")}, flush=True)
     for path in args.extra:
         track = PoseTrack.load(path)
@@ -162,7 +178,8 @@ def main(argv: list[str] | None = None) -> int:
             figures = {"reprojection_px": round(error, 1), **balance_figures(motion, motion.extras["contacts"])}
             extras.setdefault(str(path), {})[f"{mode}:{weight:g}"] = figures
             print(path, mode, weight, figures, flush=True)
-    keys = ("pa_mpjpe_mm", "mpjpe_mm", "accel_error_mm", "reprojection_px", "zmp_cm", "com_accel_m_s2", "hip_accel_m_s2")
+    keys = ("pa_mpjpe_mm", "mpjpe_mm", "accel_error_mm", "reprojection_px", "zmp_cm", "body_zmp_cm", "body_zmp_p90_cm",
+            "body_zmp_mean_cm", "com_accel_m_s2", "hip_accel_m_s2")
     means = {f"{m}:{w:g}": {k: round(float(np.mean([c[f"{m}:{w:g}"][k] for c in cameras.values()])), 2) for k in keys}
              for m, w in modes} if cameras else {}
     truths = [c[next(iter(c))].get("true_hip_accel_m_s2") for c in cameras.values()]

@@ -113,20 +113,31 @@ _POINT_OFFSETS = np.concatenate((FIT_OFFSETS, np.tile(FOOT_CORNERS, (len(FOOT_LI
 _ALL_LINKS = torch.arange(NUM_LINKS)
 
 
+def link_centres(link_pos, link_mats) -> torch.Tensor:
+    """(..., 15, 3) each link's centre of mass, from link positions (..., 15, 3) and rotation
+    matrices (..., 15, 3, 3); LINK_MASS_FRACTIONS weighs them."""
+    return points_on_links(link_pos, link_mats, _ALL_LINKS, LINK_COM_OFFSETS)
+
+
 def centre_of_mass(link_pos, link_mats) -> torch.Tensor:
     """Whole-body centre of mass (..., 3): the mass-weighted mean of the link centres of mass,
     from link positions (..., 15, 3) and rotation matrices (..., 15, 3, 3)."""
-    centres = points_on_links(link_pos, link_mats, _ALL_LINKS, LINK_COM_OFFSETS)
+    centres = link_centres(link_pos, link_mats)
     return (torch.as_tensor(LINK_MASS_FRACTIONS, dtype=link_pos.dtype).unsqueeze(-1) * centres).sum(-2)
 
 
-def body_points(root_pos, root_quat, joint_quats, with_com: bool = False):
-    """Fit points (T, P, 3) and foot-box corners (T, 2, 8, 3) of a pose trajectory, and with
-    `with_com` its centre of mass (T, 3) as a third value."""
+def body_points(root_pos, root_quat, joint_quats, with_com: bool = False, with_links: bool = False):
+    """Fit points (T, P, 3) and foot-box corners (T, 2, 8, 3) of a pose trajectory; with `with_com`
+    its centre of mass (T, 3) as a third value, and with `with_links` too the links' centres of
+    mass (T, 15, 3) as a fourth."""
     link_pos, link_mats = link_frames(root_pos, root_quat, joint_quats)
     points = points_on_links(link_pos, link_mats, _POINT_LINKS, _POINT_OFFSETS)
     fit, corners = points[..., :NUM_FIT, :], points[..., NUM_FIT:, :]
     corners = corners.reshape(corners.shape[:-2] + (len(FOOT_LINKS), len(FOOT_CORNERS), 3))
+    if with_links:
+        centres = link_centres(link_pos, link_mats)
+        weights = torch.as_tensor(LINK_MASS_FRACTIONS, dtype=link_pos.dtype).unsqueeze(-1)
+        return fit, corners, (weights * centres).sum(-2), centres
     if with_com:
         return fit, corners, centre_of_mass(link_pos, link_mats)
     return fit, corners

@@ -56,7 +56,8 @@ class ReconstructionConfig:
         "says (the eight Pose2Sim cameras: 43 -> 5 cm from the support, median; PA-MPJPE +1.0 mm, reprojection +0.4 "
         "px; balancing cam02's controller then completes without help; docs/video.md cause 19); static, the centre "
         "of mass itself, which leaves its shaking free (DeepMimic's walk accelerates it 0.6 m/s^2 sideways, the "
-        "videos' references 2.8-6.9)"})
+        "videos' references 2.8-6.9); whole_body, the zero-moment point of all 15 links' masses, which also "
+        "charges the spin about the centre of mass (limbs swung or shaking in depth)"})
     balance_flight: bool = field(default=True, metadata={
         "help": "with the dynamic balance term, also charge a frame with no foot down for its centre of mass's "
                 "departure from a free fall (services/reconstruction/losses.py flight_deviation; a 4 m/s run's flight "

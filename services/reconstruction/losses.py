@@ -175,7 +175,7 @@ def support_distance(com_xy: torch.Tensor, heels_xy: torch.Tensor, toes_xy: torc
     return torch.where(down.any(dim=-1), distance, torch.zeros_like(distance))
 
 
-BALANCE_MODES = ("static", "dynamic")
+BALANCE_MODES = ("static", "dynamic", "whole_body")
 GRAVITY = 9.81
 # The zero-moment point's lever h / (g + a_z) is bounded as if the body fell at no more than
 # 0.7 g: a frame the contacts call down that the motion says falls freely would divide by ~0.
@@ -190,8 +190,8 @@ def beyond_margin(distance: torch.Tensor, unit_m: float, margin_m: float, smooth
 
 
 def centre_acceleration(com: torch.Tensor, fps: float, half_window: int) -> torch.Tensor:
-    """(T - 2k, 3) central second difference of the centre of mass (T, 3), metres, over k =
-    `half_window` frames either side: m/s^2 at frames k .. T - k - 1."""
+    """(T - 2k, ..., 3) central second difference of the centre of mass (T, 3) or of points (T, N, 3),
+    metres, over k = `half_window` frames either side: m/s^2 at frames k .. T - k - 1."""
     k = half_window
     return (com[2 * k:] - 2.0 * com[k:-k] + com[:-2 * k]) * (fps / k) ** 2
 
@@ -205,6 +205,21 @@ def zero_moment_point(com: torch.Tensor, acceleration: torch.Tensor, ground) -> 
     return com[:, :2] - lever.unsqueeze(-1) * acceleration[:, :2]
 
 
+def whole_body_zero_moment_point(centres: torch.Tensor, masses: torch.Tensor, accelerations: torch.Tensor,
+                                 ground) -> torch.Tensor:
+    """(T, 2) the zero-moment point of the links as point masses: their centres of mass (T, N, 3), shares
+    of the body's mass (N,) and accelerations (T, N, 3). The point p on the ground where sum_i m_i (r_i - p)
+    x (a_i - g) has no horizontal part, p = sum m_i ((g + a_iz) r_i,xy - a_i,xy h_i) / sum m_i (g + a_iz), h_i
+    the link's height: `zero_moment_point` with the body's spin about its centre of mass put back (an arm
+    swung, a leg thrown out, the trunk pitched), each link's own inertia about its centre left out. With
+    one link it is `zero_moment_point`."""
+    weights = masses.to(centres.dtype).unsqueeze(-1)
+    vertical = accelerations[..., 2:3] + GRAVITY
+    height = centres[..., 2:3] - ground
+    moment = (weights * (vertical * centres[..., :2] - accelerations[..., :2] * height)).sum(-2)
+    return moment / (weights * vertical).sum(-2).clamp(min=MIN_SUPPORT_ACCEL)
+
+
 def flight_deviation(com: torch.Tensor, acceleration: torch.Tensor, ground) -> torch.Tensor:
     """(T,) metres: how far from falling freely the centre of mass (T, 3) moves, as the lever the
     force it needs would have, |a - g| (c_z - g0) / g (for a sideways push the same length as
@@ -215,11 +230,13 @@ def flight_deviation(com: torch.Tensor, acceleration: torch.Tensor, ground) -> t
 
 def dynamic_balance(com: torch.Tensor, heels: torch.Tensor, toes: torch.Tensor, contacts: torch.Tensor, unit_m: float,
                     margin_m: float, fps: float, half_window: int, ground=0.0, smooth: float = 1.0,
-                    flight: bool = False) -> torch.Tensor:
+                    flight: bool = False, links: tuple[torch.Tensor, torch.Tensor] | None = None) -> torch.Tensor:
     """(T,) rho(relu(d - margin)) as `static_balance`, d the zero-moment point's horizontal distance from
     the support (`zero_moment_point`, the acceleration over `half_window` frames either side); the first
     and last `half_window` frames, which have no central difference, keep the centre of mass itself.
     With `flight`, a frame with no foot down is charged `flight_deviation` beyond the margin (else nothing).
+    With `links` (the links' centres of mass (T, N, 3) and mass shares (N,)), the zero-moment point is the
+    whole body's (`whole_body_zero_moment_point`), the spin about the centre of mass included.
     Measured on the references (`bench/scripts/dynamic_balance.py`): DeepMimic's walk keeps its
     zero-moment point 3 cm from the support (median over contact frames, 0.1 s either side), a
     video's reconstruction 26-63 cm, its centre of mass accelerating sideways 5-12 times as hard."""
@@ -229,7 +246,11 @@ def dynamic_balance(com: torch.Tensor, heels: torch.Tensor, toes: torch.Tensor, 
     airborne = torch.zeros_like(com[:, 0])
     if len(com) > 2 * k:
         acceleration = centre_acceleration(com, fps, k)
-        zmp = zero_moment_point(com[k:-k], acceleration, ground)
+        if links is None:
+            zmp = zero_moment_point(com[k:-k], acceleration, ground)
+        else:
+            centres, masses = links
+            zmp = whole_body_zero_moment_point(centres[k:-k], masses, centre_acceleration(centres, fps, k), ground)
         point = torch.cat((point[:k], zmp, point[-k:]))
         if flight:
             airborne = torch.cat((airborne[:k], flight_deviation(com[k:-k], acceleration, ground), airborne[-k:]))

@@ -41,7 +41,7 @@ import torch
 from actors.character import quaternion as qn
 from actors.motion.reference_motion import ReferenceMotion
 from learner.errors import SfvError
-from services.reconstruction.body import SOLE_CORNERS, PoseParams, body_points
+from services.reconstruction.body import LINK_MASS_FRACTIONS, SOLE_CORNERS, PoseParams, body_points
 from services.reconstruction.camera import (
     PinholeCamera,
     balance_up,
@@ -116,9 +116,9 @@ def check_track(track, source: str) -> None:
             raise SfvError(f"{source}: pose track {name} holds NaN or infinite values")
 
 
-def _poses(params: PoseParams, root_pos=None, with_com: bool = False):
+def _poses(params: PoseParams, root_pos=None, with_com: bool = False, with_links: bool = False):
     root_pos = params.root_pos if root_pos is None else root_pos
-    return body_points(root_pos, params.root_quat(), params.joint_quats(), with_com)
+    return body_points(root_pos, params.root_quat(), params.joint_quats(), with_com, with_links)
 
 
 def _camera_path(predicted: PoseParams, rotation: np.ndarray, obs: ObservedPoints, weights: np.ndarray, focal: float,
@@ -194,7 +194,7 @@ def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed:
     the contact terms are 0 without contacts, the balance term also with w_balance = 0 (then
     not computed: the other terms are exactly those without it)."""
     balance = setup.contacts is not None and config.w_balance > 0
-    fit, corners, *com = _poses(params, with_com=balance)
+    fit, corners, *com = _poses(params, with_com=balance, with_links=balance and config.balance == "whole_body")
     frames = fit.shape[0]
     rotations = torch.cat((params.root_quat().unsqueeze(-2), params.joint_quats()), dim=-2)
     unit = config.length_unit_m
@@ -217,20 +217,24 @@ def loss_terms(params: PoseParams, ground: torch.Tensor, setup: Setup, observed:
             terms["flat"] = stance_tilt(fit[:, HEEL_POINTS], fit[:, TOE_POINTS], contacts, unit).mean()
         if balance:
             terms["balance"] = balance_term(com[0], fit[:, HEEL_POINTS], fit[:, TOE_POINTS], contacts, ground, setup.fps,
-                                            config).mean()
+                                            config, centres=com[1] if len(com) > 1 else None).mean()
     return terms
 
 
 def balance_term(com: torch.Tensor, heels: torch.Tensor, toes: torch.Tensor, contacts: torch.Tensor, ground: torch.Tensor,
-                 fps: float, config: ReconstructionConfig) -> torch.Tensor:
+                 fps: float, config: ReconstructionConfig, centres: torch.Tensor | None = None) -> torch.Tensor:
     """(T,) the balance term of `config.balance`: the centre of mass (static) or the zero-moment point
-    (dynamic, the acceleration over `balance_window_s` either side) beyond the margin from the support."""
+    (dynamic: of the centre of mass; whole_body: of the links' centres of mass (T, 15, 3) `centres`, the
+    accelerations over `balance_window_s` either side) beyond the margin from the support."""
     unit = config.length_unit_m
     if config.balance == "static":
         return static_balance(com, heels, toes, contacts, unit, config.balance_margin_m)
     half_window = max(1, int(round(config.balance_window_s * fps)))
+    links = None
+    if config.balance == "whole_body":
+        links = (centres, torch.as_tensor(LINK_MASS_FRACTIONS, dtype=com.dtype))
     return dynamic_balance(com, heels, toes, contacts, unit, config.balance_margin_m, fps, half_window, ground[0],
-                           flight=config.balance_flight)
+                           flight=config.balance_flight, links=links)
 
 
 def held_ankles(contacts: np.ndarray | None, dtype: torch.dtype) -> torch.Tensor | None:
