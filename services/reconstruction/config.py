@@ -57,7 +57,9 @@ class ReconstructionConfig:
         "px; balancing cam02's controller then completes without help; docs/video.md cause 19); static, the centre "
         "of mass itself, which leaves its shaking free (DeepMimic's walk accelerates it 0.6 m/s^2 sideways, the "
         "videos' references 2.8-6.9); whole_body, the zero-moment point of all 15 links' masses, which also "
-        "charges the spin about the centre of mass (limbs swung or shaking in depth)"})
+        "charges the spin about the centre of mass (limbs swung or shaking in depth; the Pose2Sim cameras: its 90th "
+        "percentile 23.7 -> 14.9 cm from the support at the same PA-MPJPE, the controllers' help unchanged, so not the "
+        "default; docs/video.md cause 20)"})
     balance_flight: bool = field(default=True, metadata={
         "help": "with the dynamic balance term, also charge a frame with no foot down for its centre of mass's "
                 "departure from a free fall (services/reconstruction/losses.py flight_deviation; a 4 m/s run's flight "
