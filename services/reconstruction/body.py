@@ -119,11 +119,14 @@ def link_centres(link_pos, link_mats) -> torch.Tensor:
     return points_on_links(link_pos, link_mats, _ALL_LINKS, LINK_COM_OFFSETS)
 
 
+def mass_weighted(centres: torch.Tensor) -> torch.Tensor:
+    """(..., 3) the mass-weighted mean of the link centres of mass (..., 15, 3): the body's centre of mass."""
+    return (torch.as_tensor(LINK_MASS_FRACTIONS, dtype=centres.dtype).unsqueeze(-1) * centres).sum(-2)
+
+
 def centre_of_mass(link_pos, link_mats) -> torch.Tensor:
-    """Whole-body centre of mass (..., 3): the mass-weighted mean of the link centres of mass,
-    from link positions (..., 15, 3) and rotation matrices (..., 15, 3, 3)."""
-    centres = link_centres(link_pos, link_mats)
-    return (torch.as_tensor(LINK_MASS_FRACTIONS, dtype=link_pos.dtype).unsqueeze(-1) * centres).sum(-2)
+    """Whole-body centre of mass (..., 3), from link positions (..., 15, 3) and rotation matrices (..., 15, 3, 3)."""
+    return mass_weighted(link_centres(link_pos, link_mats))
 
 
 def body_points(root_pos, root_quat, joint_quats, with_com: bool = False, with_links: bool = False):
@@ -136,8 +139,7 @@ def body_points(root_pos, root_quat, joint_quats, with_com: bool = False, with_l
     corners = corners.reshape(corners.shape[:-2] + (len(FOOT_LINKS), len(FOOT_CORNERS), 3))
     if with_links:
         centres = link_centres(link_pos, link_mats)
-        weights = torch.as_tensor(LINK_MASS_FRACTIONS, dtype=link_pos.dtype).unsqueeze(-1)
-        return fit, corners, (weights * centres).sum(-2), centres
+        return fit, corners, mass_weighted(centres), centres
     if with_com:
         return fit, corners, centre_of_mass(link_pos, link_mats)
     return fit, corners
