@@ -1,4 +1,5 @@
-"""Can the body alone follow what the helped body did? Issue 44: a second stage after `sfv pipeline`.
+"""Can the body alone follow what the helped body did? Issue 44: a second stage after `sfv pipeline`
+(now the pipeline's own stage, `services/pipeline/body_alone.py`; this script runs it into a separate DIR).
 
     python bench/scripts/body_alone_stage.py RUN --out DIR [--samples 2000000] [--seed 0]
 
@@ -26,40 +27,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
-
 REPO = Path(__file__).resolve().parents[2]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
-
-POSE_FIELDS = ("root_pos", "root_rot", "joint_rot")
-
-
-def helped_reference(run: Path, out: Path) -> Path:
-    """DIR/motion.npz: RUN's reconstruction with the helped rollout's poses. The rollout has one frame per
-    control step (30 Hz); a video at another rate gives its per-frame fields (keypoints, contacts) at the
-    reconstruction frame nearest each control step."""
-    from learner.atomic_io import atomic_output
-    from learner.errors import SfvError
-
-    motion = dict(np.load(run / "motion.npz", allow_pickle=True))
-    simulated = np.load(run / "simulated.npz", allow_pickle=True)
-    times, steps = np.asarray(motion["frame_times"], float), np.asarray(simulated["frame_times"], float)
-    if "fell_at_s" in simulated.files and np.isfinite(float(simulated["fell_at_s"])):
-        raise SfvError(f"{run}: the helped rollout fell at {float(simulated['fell_at_s']):.2f} s: no motion to follow")
-    nearest = np.abs(times[None, :] - steps[:, None]).argmin(axis=1)
-    frames = len(times)
-    for name, value in motion.items():
-        if np.ndim(value) >= 1 and len(value) == frames:
-            motion[name] = np.asarray(value)[nearest]
-    motion.update({name: simulated[name] for name in (*POSE_FIELDS, "frame_times")})
-    motion["fps"] = np.asarray(1.0 / float(np.median(np.diff(steps))))
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / "motion.npz"
-    with atomic_output(path) as temporary:
-        with open(temporary, "wb") as handle:
-            np.savez(handle, **motion)
-    return path
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -72,6 +42,8 @@ def main(argv: list[str] | None = None) -> int:
 
     from learner.atomic_io import atomic_write_json
     from services.commands._pipeline_settings import STATIC_DEFAULTS
+
+    from services.pipeline.body_alone import helped_reference
 
     helped = json.loads((args.run / "report.json").read_text())
     motion = helped_reference(args.run, args.out)

@@ -7,8 +7,9 @@ from PyPI wheels: `services/bench/public_videos.py`); default: every camera of .
 trials and every public video. Each
 video runs as a user runs it, `sfv pipeline VIDEO --out RUNS/<folder>_<video>` in its own
 process (pose, reconstruction, 2 M samples, the controller from the first frame); a run directory
-that already holds report.json is measured as it is, one with a finished training only finished
-(`--finish-only`), so an interrupted suite resumes. Per video:
+that already holds a report.json with its body-alone stage decided is measured as it is, any other
+with a motion.npz continues (`--resume`: a training part way, the finishing, the body-alone stage),
+so an interrupted suite resumes. Per video:
 
 - the licence (the first line of a LICENSE file beside the video; "unknown" without one);
 - the subject: frames of the video it covers, person id and the pipeline's one-line reason;
@@ -21,10 +22,13 @@ that already holds report.json is measured as it is, one with a finished trainin
   of the simulated motion against the 12 triangulated joints, on the controller's 30 Hz grid;
 - the controller: outcome line, fall and when, NR from the first frame, the residual root force it
   used (mean and max, fraction of body weight; null when trained without one) and the same episode
-  with that help at zero (`without_residual_force`), minutes of the run;
+  with that help at zero (`without_residual_force`), minutes of the run (both stages);
+- the body-alone stage (`body_alone`: ran or why not, fall, NR), the `controller` line and
+  `completed_without_help` (the controller the pipeline gives completes the clip with no help);
 - the frame strip: the run's overlay_strip.png beside the results as `<out>_<name>.png`, at most
   STRIP_WIDTH px wide (the run's own is 1632 px and 1.1 MB), and where the controller had a help
-  its strip without it as `<out>_<name>_without_help.png`.
+  its strip without it as `<out>_<name>_without_help.png`, and the body-alone stage's as
+  `<out>_<name>_body_alone.png`.
 """
 from __future__ import annotations
 
@@ -97,15 +101,16 @@ def run_name(video: Path) -> str:
 
 def run_pipeline(video: Path, out: Path, log) -> float:
     """Minutes of `sfv pipeline` on `video` into `out` (resumed or reused, see the module docstring)."""
-    if (out / "report.json").is_file() and (out / MINUTES_FILE).is_file():
+    report = out / "report.json"
+    if report.is_file() and (out / MINUTES_FILE).is_file() and "body_alone" in json.loads(report.read_text()):
         return json.loads((out / MINUTES_FILE).read_text())["minutes"]
     command = [sys.executable, "-m", "services.cli", "pipeline", str(video), "--out", str(out), "--quiet"]
-    if (out / "motion.npz").is_file() and (out / "train" / "config.json").is_file():
-        command.append("--finish-only")
+    if (out / "motion.npz").is_file():
+        command.append("--resume")  # an interrupted run, or one from before the body-alone stage
     log(" ".join(command))
     out.mkdir(parents=True, exist_ok=True)
     measured = out / MINUTES_FILE
-    earlier = json.loads(measured.read_text())["minutes"] if "--finish-only" in command and measured.is_file() else None
+    earlier = json.loads(measured.read_text())["minutes"] if "--resume" in command and measured.is_file() else None
     if not (out / STARTED_FILE).is_file():  # a resumed run's minutes count from its first start
         atomic_write_json(out / STARTED_FILE, {"started": time.time()})
     started, now = json.loads((out / STARTED_FILE).read_text())["started"], time.time()
@@ -113,7 +118,7 @@ def run_pipeline(video: Path, out: Path, log) -> float:
         done = subprocess.run(command, cwd=REPO, stdout=stdout, stderr=subprocess.STDOUT)
     if done.returncode != 0:
         raise SfvError(f"{video}: sfv pipeline failed (exit {done.returncode}); see {out}/pipeline_stdout.txt")
-    if earlier is not None:  # finished again (a report redone): the run's minutes plus this finishing
+    if earlier is not None:  # a measured run taken further (the body-alone stage): its minutes plus these
         minutes = round(earlier + (time.time() - now) / 60.0, 1)
     else:
         minutes = round((time.time() - started) / 60.0, 1)
@@ -155,6 +160,11 @@ def video_row(video: Path, out: Path, minutes: float, strip: Path) -> dict:
     if (out / "overlay_strip_without_help.png").is_file():  # the body alone, where the run had a help
         unaided = strip.with_name(f"{strip.stem}_without_help.png")
         copy_strip(out / "overlay_strip_without_help.png", unaided)
+    stage = report.get("body_alone") or {"ran": False}
+    alone_strip = None
+    if stage["ran"]:  # the second stage's controller, the body alone on the helped rollout
+        alone_strip = strip.with_name(f"{strip.stem}_body_alone.png")
+        copy_strip(Path(stage["directory"]) / "overlay_strip.png", alone_strip)
     return {
         "video": str(video), "licence": licence(video), "run": str(out), "minutes": minutes,
         "subject": {"person": int(motion.extras.get("person_id", 0)), "frames": [start, start + motion.num_frames - 1],
@@ -170,15 +180,28 @@ def video_row(video: Path, out: Path, minutes: float, strip: Path) -> dict:
         "without_residual_force": report.get("without_residual_force"),  # the same episode with the help at zero
         "root_relative_joint_error_m": report["root_relative_joint_error_m"]["mean"],
         "world_aligned_joint_error_m": (report.get("world_aligned_joint_error_m") or {}).get("mean"),
+        "body_alone": stage,  # the pipeline's second stage: whether it ran, why, and its figures
+        "controller": report.get("controller"),  # which controller the pipeline gives, how it ends without help
+        "completed_without_help": completed_without_help(report),
         "strip": str(strip),
         "strip_without_help": None if unaided is None else str(unaided),
+        "strip_body_alone": None if alone_strip is None else str(alone_strip),
     }
+
+
+def completed_without_help(report: dict) -> bool:
+    """Whether the controller the pipeline gives completes the clip from its first frame with no help:
+    the body-alone stage's where it ran, else the first controller with its help at zero."""
+    stage, unaided = report.get("body_alone") or {}, report.get("without_residual_force")
+    if stage.get("ran"):
+        return not stage["fell"]
+    return not (unaided or report)["fell"]
 
 
 def markdown(rows: list[dict]) -> str:
     lines = ["| video | subject frames | reprojection px ref / sim | skating m/s ref / sim | penetration cm sim | "
-             "PA-MPJPE mm kin / sim | from the first frame | NR | root help, body weight | minutes |",
-             "|---|---|---|---|---|---|---|---:|---|---:|"]
+             "PA-MPJPE mm kin / sim | from the first frame | NR | root help, body weight | the body alone | minutes |",
+             "|---|---|---|---|---|---|---|---:|---|---|---:|"]
     for r in rows:
         gt = r["ground_truth"]
         pa = "-" if gt is None else f"{gt['kinematic']['pa_mpjpe_mm']:.0f} / {gt['simulated']['pa_mpjpe_mm']:.0f}"
@@ -189,7 +212,7 @@ def markdown(rows: list[dict]) -> str:
                      f"{_num(100 * r['penetration_max_m']['simulated'])} | {pa} | "
                      f"{'fell at %.2f s' % r['fell_at_s'] if r['fell'] else 'completed'} | "
                      f"{r['normalized_return']:.3f} | {_help(r.get('residual_force_body_weight'), r.get('without_residual_force'))} | "
-                     f"{r['minutes']:.1f} |")
+                     f"{_alone(r.get('body_alone'))} | {r['minutes']:.1f} |")
     return "\n".join(lines)
 
 
@@ -202,6 +225,14 @@ def _help(used: dict | None, alone: dict | None = None) -> str:
     if alone is not None:
         text += "; alone: " + (f"fell at {alone['fell_at_s']:.2f} s" if alone["fell"] else "completed")
     return text
+
+
+def _alone(stage: dict | None) -> str:
+    """The body-alone stage's result in a table cell ('-' where it did not run)."""
+    if not stage or not stage.get("ran"):
+        return "-"
+    ending = f"fell at {stage['fell_at_s']:.2f} s" if stage["fell"] else "completed"
+    return f"{ending}, NR {stage['normalized_return']:.3f}"
 
 
 def _num(value, digits: int = 1) -> str:
@@ -220,6 +251,7 @@ def run_videos_suite(videos: list[Path], runs_dir: Path, out: Path, log) -> dict
         rows.append(row)
         rows.sort(key=lambda r: r["video"])
         document["completed"] = sum(not r["fell"] for r in rows)
+        document["completed_without_help"] = sum(bool(r.get("completed_without_help")) for r in rows)
         atomic_write_json(out, document)
         log(f"{run_name(video)}: {row['outcome']}")  # this video's, not the last row after sorting
     return document

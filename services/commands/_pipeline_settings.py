@@ -18,9 +18,11 @@ PIPELINE_DEFAULT_TEXT = {
 }
 
 
-def train_config(args, motion: str, out: str, defaults: dict | None = None):
+def train_config(args, motion: str, out: str, defaults: dict | None = None, saved: dict | None = None):
     """The training's TrainConfig: `sfv train`'s defaults, then the pipeline's `defaults`
-    ({config path: value}), then --config, then the flags given."""
+    ({config path: value}), then --config, then the flags given. `saved` (a run's config.json, for
+    --resume): that run's settings replace the defaults, and the settings given follow `sfv train
+    --resume`'s rules (one that cannot change is a one-line error)."""
     from learner.errors import SfvError
     from services.training.flags import chosen_presets, given_settings, read_config_file, resolve
 
@@ -33,10 +35,10 @@ def train_config(args, motion: str, out: str, defaults: dict | None = None):
     from_flags, flag_names = given_settings(args)
     given.update(from_flags)
     flags.update(flag_names)
-    for path, value in (defaults or {}).items():
+    for path, value in (defaults or {}).items() if saved is None else ():
         if path not in given:
             given[path], flags[path] = value, f"sfv pipeline's default {path}"
-    config = resolve(given, flags, None, chosen_presets(args))
+    config = resolve(given, flags, saved, chosen_presets(args), resuming=saved is not None)
     config.motion, config.out = motion, out
     config.validate()
     return config

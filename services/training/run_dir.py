@@ -47,6 +47,14 @@ def read_run_config(run_dir: str | Path):
         raise SfvError(f"{path}: unreadable run config ({type(exc).__name__}: {exc})") from None
 
 
+def trained_samples(run_dir: str | Path) -> int | None:
+    """The samples the run's newest valid checkpoint holds; None for a run with none (nothing to resume)."""
+    from learner.checkpoint import latest_checkpoint, load_checkpoint
+
+    latest = latest_checkpoint(run_dir)
+    return None if latest is None else int(load_checkpoint(latest)["samples"])
+
+
 BEST_CHECKPOINT = "best.pt"  # the policy of the best periodic evaluation so far (the driver keeps it)
 CHECKPOINT_CHOICES = ("best", "latest")
 

@@ -23,8 +23,9 @@ def _motion(frames: int, extras: dict) -> ReferenceMotion:
                            np.tile(identity[:, None], (1, 12, 1)), loop=False, extras=extras)
 
 
-def _finished_run(run, fell: bool) -> None:
-    """What a finished `sfv pipeline` leaves: report.json, motion.npz, simulated.npz, the strip."""
+def _finished_run(run, fell: bool, alone: bool = False) -> None:
+    """What a finished `sfv pipeline` leaves: report.json, motion.npz, simulated.npz, the strip; `alone`:
+    a helped controller that completes, falls without its help, and a body-alone stage that completes."""
     run.mkdir(parents=True)
     joints = np.zeros((10, 12, 3))
     save_motion(_motion(10, {"video_start_frame": np.array(4), "person_id": np.array(1), "keypoints3d": joints,
@@ -43,7 +44,14 @@ def _finished_run(run, fell: bool) -> None:
               "ground_penetration_m": {"simulated": {"mean": 0.01, "max": 0.02}, "reference": {"mean": 0.0, "max": 0.0}},
               "root_relative_joint_error_m": {"mean": 0.1}, "world_aligned_joint_error_m": {"mean": 0.2},
               "residual_force_body_weight": {"mean": 0.114, "max": 0.192} if fell else None,
-              **({"without_residual_force": {"fell": True, "fell_at_s": 0.1, "normalized_return": 0.2}} if fell else {})}
+              **({"without_residual_force": {"fell": True, "fell_at_s": 0.1, "normalized_return": 0.2}} if fell or alone else {}),
+              "body_alone": {"ran": False, "line": "the body-alone stage: not needed"}}
+    if alone:
+        (run / "alone").mkdir()
+        cv2.imwrite(str(run / "alone" / "overlay_strip.png"), np.full((480, 1632, 3), 60, np.uint8))
+        report["residual_force_body_weight"] = {"mean": 0.08, "max": 0.1}
+        report["body_alone"] = {"ran": True, "line": "the body-alone stage: training", "fell": False, "fell_at_s": None,
+                                "normalized_return": 0.861, "directory": str(run / "alone")}
     (run / "report.json").write_text(json.dumps(report))
 
 
@@ -55,24 +63,30 @@ def test_the_suite_measures_finished_runs_and_writes_one_row_per_video(tmp_path,
     (videos / "notes.txt").write_text("not a video")
     (videos / "LICENSE").write_text("\nCC-BY 4.0, someone\n")
     runs, out = tmp_path / "runs", tmp_path / "videos.json"
+    (videos / "c.mp4").write_bytes(b"")
     _finished_run(runs / "clips_a", fell=False)
     _finished_run(runs / "clips_b", fell=True)
+    _finished_run(runs / "clips_c", fell=False, alone=True)
     assert main(["bench", "--suite", "videos", "--videos", str(videos), "--runs-dir", str(runs), "--out", str(out),
                  "--quiet"]) == 0
     document = json.loads(out.read_text())
     rows = document["rows"]
-    assert [r["run"].split("/")[-1] for r in rows] == ["clips_a", "clips_b"] and document["completed"] == 1
+    assert [r["run"].split("/")[-1] for r in rows] == ["clips_a", "clips_b", "clips_c"] and document["completed"] == 2
+    # Without help: a (trained with none) and c (its body-alone stage) complete; b's helped controller fell.
+    assert [r["completed_without_help"] for r in rows] == [True, False, True] and document["completed_without_help"] == 2
+    assert "| 0.08 / 0.10; alone: fell at 0.10 s | completed, NR 0.861 | 12.5 |" in markdown(rows)
+    assert rows[2]["strip_body_alone"] == str(tmp_path / "videos_clips_c_body_alone.png")
     assert rows[0]["licence"] == "CC-BY 4.0, someone" and rows[0]["minutes"] == 12.5
     assert rows[0]["subject"] == {"person": 1, "frames": [4, 13], "line": "subject: person 1 of 2 (seen throughout and moves most)"}
     assert rows[1]["outcome"].startswith("fell at 0.20 s") and rows[0]["ground_truth"] is None
     import cv2
 
     assert cv2.imread(str(tmp_path / "videos_clips_b.png")).shape == (294, 1000, 3)  # 1632 x 480 scaled to 1000 wide
-    assert sorted(p.name for p in tmp_path.iterdir() if p.is_file()) == ["videos.json", "videos_clips_a.png",
-                                                                          "videos_clips_b.png"]
+    assert sorted(p.name for p in tmp_path.iterdir() if p.is_file()) == [
+        "videos.json", "videos_clips_a.png", "videos_clips_b.png", "videos_clips_c.png", "videos_clips_c_body_alone.png"]
     table = capsys.readouterr().out
-    assert "| clips_a | 4-13 (person 1) | 12.0 / 40.0 | 0.40 / 0.50 | 2.0 | - | completed | 0.500 | none | 12.5 |" in table
-    assert "| fell at 0.20 s | 0.500 | 0.11 / 0.19; alone: fell at 0.10 s | 12.5 |" in markdown(rows)
+    assert "| clips_a | 4-13 (person 1) | 12.0 / 40.0 | 0.40 / 0.50 | 2.0 | - | completed | 0.500 | none | - | 12.5 |" in table
+    assert "| fell at 0.20 s | 0.500 | 0.11 / 0.19; alone: fell at 0.10 s | - | 12.5 |" in markdown(rows)
     assert rows[0]["without_residual_force"] is None
     assert rows[1]["residual_force_body_weight"] == {"mean": 0.114, "max": 0.192}
 
@@ -131,7 +145,7 @@ def test_the_person_followed_is_found_among_the_markers():
     assert followed_truth(TWO_PEOPLE / "other.mp4", seen, frames) is None  # no camera of that name
 
 
-def test_minutes_count_from_the_first_start_and_a_refinish_adds_to_the_run(tmp_path, monkeypatch):
+def test_minutes_count_from_the_first_start_and_a_resumed_run_adds_to_its_minutes(tmp_path, monkeypatch):
     import subprocess
     import time
 
@@ -148,7 +162,7 @@ def test_minutes_count_from_the_first_start_and_a_refinish_adds_to_the_run(tmp_p
     (refinished / "train").mkdir(parents=True)
     for name in ("motion.npz", "train/config.json"):
         (refinished / name).write_text("")
-    (refinished / MINUTES_FILE).write_text(json.dumps({"minutes": 16.2}))  # trained before; its report is redone
+    (refinished / MINUTES_FILE).write_text(json.dumps({"minutes": 16.2}))  # measured before the body-alone stage
     assert videos_suite.run_pipeline(tmp_path / "v.mp4", refinished, lambda line: None) == pytest.approx(16.2, abs=0.1)
-    assert "--finish-only" in calls[-1] and "--finish-only" not in calls[0]
+    assert "--resume" in calls[-1] and "--resume" not in calls[0]
     assert json.loads((refinished / MINUTES_FILE).read_text())["minutes"] == pytest.approx(16.2, abs=0.1)

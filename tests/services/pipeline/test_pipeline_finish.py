@@ -91,9 +91,11 @@ def test_finishing_writes_the_files_and_a_report_that_adds_up(finished, trained)
     names = {"simulated.npz", "simulated.bvh", "video.mp4", "overlay_strip.png", "overlay_strip_without_help.png", "report.json"}
     assert names <= {p.name for p in root.iterdir()}
     assert not [p for p in root.iterdir() if p.name.startswith(".")]  # no temp file left behind
-    assert len(lines) == 8  # one result line per file, the outcome, then the summary as JSON
+    assert len(lines) == 9  # one result line per file, the outcome, the controller given, then the summary as JSON
     assert "without it: " in report["outcome"] and set(report["without_residual_force"]) == {"fell", "fell_at_s", "normalized_return"}
-    assert lines[-2] == report["outcome"] and report["outcome"].startswith(("completed: ", "fell at "))
+    assert lines[-3] == report["outcome"] and report["outcome"].startswith(("completed: ", "fell at "))
+    # No body-alone stage was trained: the controller is the helped one, judged with its help at zero.
+    assert lines[-2] == report["controller"] and report["controller"].startswith("controller: train, with its help at zero: ")
     summary = json.loads(lines[-1])
     assert summary["fell"] == report["fell"] and summary["files"] == report["files"]
     assert all(path in line for path, line in zip(report["files"].values(), lines))
@@ -201,3 +203,39 @@ def test_a_motion_without_a_camera_is_a_one_line_error(tmp_path):
         finish_static_run(tmp_path, tmp_path / "clip.avi", path, tmp_path / "run", progress=False)
     with pytest.raises(SfvError, match="missing.npz"):
         finish_static_run(tmp_path, tmp_path / "clip.avi", tmp_path / "missing.npz", tmp_path / "run", progress=False)
+
+
+@pytest.mark.slow
+def test_resume_keeps_a_finished_training_and_trains_the_body_alone_on_the_helped_rollout(finished, trained, tmp_path,
+                                                                                          capsys):
+    import shutil
+
+    from services.cli import main
+    from services.training.run_dir import read_run_config, trained_samples
+
+    root, report, _ = finished
+    copy = tmp_path / "run"
+    shutil.copytree(root, copy)
+    helped_samples = trained_samples(copy / "train")
+    small = ["--samples", "256", "--runner", "in_process", "--workers", "1", "--envs-per-worker", "2", "--init", "rsi",
+             "--eval-every", "0", "--batch-size", "128"]
+    assert main(["pipeline", str(trained[2]), "--out", str(copy), "--resume", "--body-alone", "always", "--quiet",
+                 *small]) == 0
+    said = capsys.readouterr().out
+    assert trained_samples(copy / "train") == helped_samples and "(kept)" in said  # the helped training kept
+    combined = json.loads((copy / "report.json").read_text())
+    stage = combined["body_alone"]
+    if report["fell"]:  # a helped controller that fell leaves no rollout of the whole clip to follow
+        assert not stage["ran"] and "fell at" in stage["line"] and not (copy / "alone").exists()
+        return
+    # The second stage: the helped rollout's poses as the reference, trained with no wrench, played from
+    # the first frame; the top report names it as the controller.
+    alone = json.loads((copy / "alone" / "report.json").read_text())
+    config = read_run_config(copy / "alone" / "train")
+    assert stage["ran"] and config.env.residual_force == 0 and "without_residual_force" not in alone
+    simulated = np.load(copy / "simulated.npz")
+    reference = load_motion(str(copy / "alone" / "motion.npz"))
+    np.testing.assert_allclose(reference.root_pos, simulated["root_pos"], atol=1e-6)
+    assert stage["normalized_return"] == alone["normalized_return"]
+    assert combined["controller"].startswith("controller: the body alone (alone/train, no help): ")
+    assert combined["controller"] in said

@@ -1,0 +1,120 @@
+"""The static pipeline's second stage: the body alone, trained on the helped controller's rollout.
+
+`sfv pipeline` trains its first controller with a residual root wrench (the help): a reconstruction
+from video is not a motion the body alone can perform (docs/video.md, causes 1-20), and five of the
+nine development videos' helped controllers fell once the help was taken away. The helped rollout
+from the first frame (DIR/simulated.npz) is a motion the simulated body did perform, apart from the
+help's push: no foot skating, no limbs shaking in depth. Made the reference of a second training with
+the help at zero, the body alone completed all five of those videos from the first frame
+(bench/results/body_alone_stage.json, one seed each; trained on the kinematic reference instead, the
+park walk's body alone fell at 3.97 s). So when the helped controller needs its help, the pipeline
+trains this stage (DIR/alone, twice the minutes):
+
+    DIR/alone/motion.npz   the reconstruction (its camera, keypoints, contacts) with the helped
+                           rollout's poses, one frame per control step (`helped_reference`)
+    DIR/alone/train/       the second training, `--env.residual-force 0`, the pipeline's other settings
+    DIR/alone/report.json, simulated.npz, video.mp4, overlay_strip.png: the body-alone controller
+                           against the video from the first frame (`finish.py`)
+
+DIR/report.json gains `body_alone` (whether the stage ran and why, and its figures) and `controller`
+(one line: which controller the pipeline gives, and how it ends without help).
+
+`--body-alone auto` (default) runs it when the helped controller completes the clip and falls without
+its help; `always` also when the body alone completes already; `off` never.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from learner.errors import SfvError
+
+ALONE_DIR = "alone"
+MODES = ("auto", "always", "off")
+POSE_FIELDS = ("root_pos", "root_rot", "joint_rot")
+# The body-alone report's figures kept in DIR/report.json's `body_alone`.
+KEPT = ("outcome", "fell", "fell_at_s", "normalized_return")
+
+
+def stage_decision(report: dict, mode: str) -> tuple[bool, str]:
+    """(train the second stage?, one line saying why) from the helped controller's report."""
+    if mode not in MODES:
+        raise SfvError(f"--body-alone: {mode!r} is not one of {', '.join(MODES)}")
+    unaided = report.get("without_residual_force")
+    if mode == "off":
+        return False, "the body-alone stage: off (--body-alone off)"
+    if unaided is None:
+        return False, "the body-alone stage: not needed (the controller was trained without a residual root force)"
+    if report["fell"]:
+        return False, (f"the body-alone stage: skipped (the helped controller fell at {report['fell_at_s']:.2f} s: "
+                       "no rollout of the whole clip to follow)")
+    if mode == "auto" and not unaided["fell"]:
+        return False, "the body-alone stage: not needed (the controller completes the clip without its help too)"
+    cause = (f"the helped controller falls at {unaided['fell_at_s']:.2f} s without its help" if unaided["fell"]
+             else "--body-alone always")
+    return True, f"the body-alone stage: training the body alone on the helped rollout ({cause}) into {ALONE_DIR}/"
+
+
+def helped_reference(run: Path, out: Path) -> Path:
+    """`out`/motion.npz: `run`'s reconstruction with its helped rollout's poses. The rollout has one frame
+    per control step (30 Hz); a video at another rate gives its per-frame fields (keypoints, contacts) at
+    the reconstruction frame nearest each control step. A rollout that fell is refused."""
+    from learner.atomic_io import atomic_output
+
+    run, out = Path(run), Path(out)
+    motion = dict(np.load(run / "motion.npz", allow_pickle=True))
+    simulated = np.load(run / "simulated.npz", allow_pickle=True)
+    times, steps = np.asarray(motion["frame_times"], float), np.asarray(simulated["frame_times"], float)
+    if "fell_at_s" in simulated.files and np.isfinite(float(simulated["fell_at_s"])):
+        raise SfvError(f"{run}: the helped rollout fell at {float(simulated['fell_at_s']):.2f} s: no motion to follow")
+    nearest = np.abs(times[None, :] - steps[:, None]).argmin(axis=1)
+    frames = len(times)
+    for name, value in motion.items():
+        if np.ndim(value) >= 1 and len(value) == frames:
+            motion[name] = np.asarray(value)[nearest]
+    motion.update({name: simulated[name] for name in (*POSE_FIELDS, "frame_times")})
+    motion["fps"] = np.asarray(1.0 / float(np.median(np.diff(steps))))
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "motion.npz"
+    with atomic_output(path) as temporary:
+        with open(temporary, "wb") as handle:
+            np.savez(handle, **motion)
+    return path
+
+
+def stage_summary(ran: bool, line: str, alone: dict | None = None) -> dict:
+    """DIR/report.json's `body_alone`: whether the stage ran, why, and the body-alone report's figures."""
+    summary = {"ran": ran, "line": line}
+    if alone is not None:
+        summary.update({key: alone.get(key) for key in KEPT}, directory=str(Path(alone["files"]["report"]).parent),
+                       run=alone.get("run"),
+                       joint_position_error_m=alone["joint_position_error_m"]["mean"],
+                       reprojection_error_px=(alone["reprojection_error_px"]["simulated"] or {}).get("mean"))
+    return summary
+
+
+def controller_line(helped: dict, summary: dict) -> str:
+    """Which controller the pipeline gives and how it ends without help, in one line."""
+    if summary.get("ran"):
+        ending = (f"falls at {summary['fell_at_s']:.2f} s" if summary["fell"] else "completes the clip from its first frame")
+        return f"controller: the body alone ({ALONE_DIR}/train, no help): {ending}, NR {summary['normalized_return']:.3f}"
+    unaided = helped.get("without_residual_force")
+    if unaided is None:
+        ending = f"falls at {helped['fell_at_s']:.2f} s" if helped["fell"] else "completes the clip from its first frame"
+        return f"controller: train (no help): {ending}, NR {helped['normalized_return']:.3f}"
+    ending = (f"falls at {unaided['fell_at_s']:.2f} s" if unaided["fell"] else "completes the clip from its first frame")
+    return f"controller: train, with its help at zero: {ending}, NR {unaided['normalized_return']:.3f}"
+
+
+def record_stage(report_path: Path, summary: dict) -> dict:
+    """DIR/report.json with `body_alone` and `controller` written in (atomically); returns it."""
+    import json
+
+    from learner.atomic_io import atomic_write_json
+
+    report = json.loads(Path(report_path).read_text())
+    report["body_alone"] = summary
+    report["controller"] = controller_line(report, summary)
+    atomic_write_json(report_path, report)
+    return report

@@ -1,0 +1,87 @@
+"""The pipeline's body-alone stage (`services/pipeline/body_alone.py`): the helped rollout made the
+reference of a body-alone training, when it runs, and what the report says."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from learner.errors import SfvError
+from services.pipeline.body_alone import helped_reference
+
+
+def write_run(folder, fell_at_s=float("nan")):
+    """A 60 fps reconstruction of 10 frames and a 30 Hz helped rollout of 5 control steps."""
+    frames, steps = 10, 5
+    times = np.arange(frames) / 60.0
+    np.savez(folder / "motion.npz", frame_times=times, fps=np.asarray(60.0), root_pos=np.zeros((frames, 3)),
+             root_rot=np.tile([1.0, 0, 0, 0], (frames, 1)), joint_rot=np.tile([1.0, 0, 0, 0], (frames, 12, 1)),
+             contacts=(np.arange(frames * 2).reshape(frames, 2) % 3 == 0), keypoints2d=np.arange(frames * 24.0).reshape(frames, 12, 2),
+             camera_intrinsics=np.eye(3))
+    rollout = np.arange(steps, dtype=float)[:, None] * np.array([0.1, 0.0, 0.0]) + np.array([0.0, 0.0, 0.9])
+    np.savez(folder / "simulated.npz", frame_times=np.arange(steps) / 30.0, root_pos=rollout,
+             root_rot=np.tile([0.0, 0, 0, 1.0], (steps, 1)), joint_rot=np.tile([0.0, 1.0, 0, 0], (steps, 12, 1)),
+             fell_at_s=np.asarray(fell_at_s))
+    return rollout
+
+
+def test_the_rollout_s_poses_replace_the_reconstruction_s_at_the_control_rate(tmp_path):
+    rollout = write_run(tmp_path)
+    made = np.load(helped_reference(tmp_path, tmp_path / "alone"))
+    source = np.load(tmp_path / "motion.npz")
+    assert np.allclose(made["root_pos"], rollout) and np.allclose(made["joint_rot"][..., 1], 1.0)
+    assert float(made["fps"]) == pytest.approx(30.0)
+    # The per-frame fields are the reconstruction's frames nearest each control step (0, 2, 4, 6, 8);
+    # the camera is kept whole.
+    assert np.array_equal(made["contacts"], source["contacts"][::2])
+    assert np.array_equal(made["keypoints2d"], source["keypoints2d"][::2])
+    assert np.array_equal(made["camera_intrinsics"], np.eye(3))
+
+
+def test_a_rollout_that_fell_is_refused(tmp_path):
+    write_run(tmp_path, fell_at_s=0.05)
+    with pytest.raises(SfvError, match="fell at 0.05 s"):
+        helped_reference(tmp_path, tmp_path / "alone")
+    assert not (tmp_path / "alone" / "motion.npz").exists()
+
+
+def helped_report(fell_at_s=None, alone_fell_at_s=None, help_used=True):
+    report = {"fell": fell_at_s is not None, "fell_at_s": fell_at_s, "normalized_return": 0.8}
+    if help_used:
+        report["without_residual_force"] = {"fell": alone_fell_at_s is not None, "fell_at_s": alone_fell_at_s,
+                                            "normalized_return": 0.4}
+    return report
+
+
+def test_the_stage_runs_where_the_helped_controller_completes_and_the_body_alone_falls():
+    from services.pipeline.body_alone import stage_decision
+
+    needed, line = stage_decision(helped_report(alone_fell_at_s=1.234), "auto")
+    assert needed and "falls at 1.23 s without its help" in line
+    # Not where the body alone completes already, unless asked; never where the helped controller fell
+    # (no rollout of the whole clip), where there was no help, or when turned off.
+    assert not stage_decision(helped_report(), "auto")[0] and stage_decision(helped_report(), "always")[0]
+    skipped = stage_decision(helped_report(fell_at_s=0.5, alone_fell_at_s=0.3), "always")
+    assert not skipped[0] and "fell at 0.50 s" in skipped[1]
+    assert not stage_decision(helped_report(help_used=False), "always")[0]
+    assert not stage_decision(helped_report(alone_fell_at_s=1.0), "off")[0]
+    with pytest.raises(SfvError, match="--body-alone: 'sometimes'"):
+        stage_decision(helped_report(), "sometimes")
+
+
+def test_the_report_names_the_controller_the_pipeline_gives(tmp_path):
+    import json
+
+    from services.pipeline.body_alone import record_stage, stage_summary
+
+    path = tmp_path / "report.json"
+    path.write_text(json.dumps(helped_report(alone_fell_at_s=1.0)))
+    alone = {"outcome": "completed: upright", "fell": False, "fell_at_s": None, "normalized_return": 0.8612,
+             "run": str(tmp_path / "alone" / "train"), "files": {"report": str(tmp_path / "alone" / "report.json")},
+             "joint_position_error_m": {"mean": 0.2}, "reprojection_error_px": {"simulated": {"mean": 31.9}}}
+    report = record_stage(path, stage_summary(True, "the body-alone stage: training", alone))
+    assert report["controller"] == ("controller: the body alone (alone/train, no help): completes the clip from its "
+                                    "first frame, NR 0.861")
+    assert json.loads(path.read_text())["body_alone"]["reprojection_error_px"] == 31.9
+    # Without the stage the controller is the helped one, judged with its help at zero.
+    report = record_stage(path, stage_summary(False, "off"))
+    assert report["controller"] == "controller: train, with its help at zero: falls at 1.00 s, NR 0.400"
