@@ -404,6 +404,29 @@ class PPOLearner:
             "policy_lr": self.policy_lr,
         }
 
+    def start_from(self, state: dict[str, Any]) -> int:
+        """Another learner's weights (a `state_dict()`): policy, value network and normaliser, not its
+        optimisers, RNGs or rates. A policy with more action numbers than this one (a residual root
+        wrench's six after the joints') gives its first `act_dim`; returns how many were dropped."""
+        obs_dim, act_dim = state.get("obs_dim"), state.get("act_dim")
+        if obs_dim != self.obs_dim or act_dim is None or act_dim < self.act_dim:
+            raise SfvError(f"start from: a learner for obs_dim/act_dim {(obs_dim, act_dim)} cannot start this one "
+                           f"{(self.obs_dim, self.act_dim)} (the observation must match; actions may only be dropped)")
+        policy = dict(state["policy"])
+        dropped = int(act_dim - self.act_dim)
+        if dropped:
+            layers = sorted({int(k.split(".")[1]) for k in policy if k.startswith("mean_net.")})
+            for name in (f"mean_net.{layers[-1]}.weight", f"mean_net.{layers[-1]}.bias", "log_std"):
+                policy[name] = policy[name][: self.act_dim]
+        try:
+            self.policy.load_state_dict(policy)
+            self.value.load_state_dict(state["value"])
+            self.normalizer.load_state_dict(state["normalizer"])
+        except (KeyError, RuntimeError) as exc:
+            reason = " ".join(str(exc).split())[:300]
+            raise SfvError(f"start from: the networks do not fit this learner ({type(exc).__name__}: {reason})") from exc
+        return dropped
+
     def load_state_dict(self, state: dict[str, Any]) -> None:
         """Restore a `state_dict()`; hyper-parameters (learning rates) stay those of `self.config`."""
         dims = (state.get("obs_dim"), state.get("act_dim"))

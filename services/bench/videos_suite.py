@@ -19,7 +19,8 @@ so an interrupted suite resumes. Per video:
 - ground truth where a Pose2Sim `.trc` lies beside the video (the one whose markers project
   nearest the subject's 2D keypoints through `Calib_qualisys.toml`: which person was followed):
   PA-MPJPE, MPJPE after one similarity and acceleration error (mm) of the kinematic reference and
-  of the simulated motion against the 12 triangulated joints, on the controller's 30 Hz grid;
+  of the simulated motion (and of the body-alone stage's, where it ran) against the 12 triangulated
+  joints, on the controller's 30 Hz grid;
 - the controller: outcome line, fall and when, NR from the first frame, the residual root force it
   used (mean and max, fraction of body weight; null when trained without one) and the same episode
   with that help at zero (`without_residual_force`), minutes of the run (both stages);
@@ -173,7 +174,7 @@ def video_row(video: Path, out: Path, minutes: float, strip: Path) -> dict:
         "reprojection_px": {k: (v or {}).get("mean") for k, v in report["reprojection_error_px"].items()},
         "foot_skating_m_s": report["foot_skating_m_s"],
         "penetration_max_m": {k: v["max"] for k, v in report["ground_penetration_m"].items()},
-        "ground_truth": truth_errors(video, report, motion, simulated),
+        "ground_truth": truth_errors(video, report, motion, simulated, alone_motion(stage)),
         "outcome": report.get("outcome"), "fell": report["fell"], "fell_at_s": report["fell_at_s"],
         "normalized_return": report["normalized_return"],
         "residual_force_body_weight": report.get("residual_force_body_weight"),  # the root help used (null: none)
@@ -187,6 +188,14 @@ def video_row(video: Path, out: Path, minutes: float, strip: Path) -> dict:
         "strip_without_help": None if unaided is None else str(unaided),
         "strip_body_alone": None if alone_strip is None else str(alone_strip),
     }
+
+
+def alone_motion(stage: dict):
+    """The body-alone stage's simulated motion, where the stage ran (None otherwise)."""
+    from actors.motion.formats.io import load_motion
+
+    path = Path(stage["directory"]) / "simulated.npz" if stage.get("ran") else None
+    return load_motion(str(path)) if path is not None and path.is_file() else None
 
 
 def completed_without_help(report: dict) -> bool:

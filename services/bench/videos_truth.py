@@ -64,8 +64,9 @@ def followed_truth(video: Path, keypoints2d: np.ndarray, frames: np.ndarray) -> 
     return path, joints
 
 
-def truth_errors(video: Path, report: dict, motion, simulated) -> dict | None:
-    """{"trc", "frames", "kinematic": {...}, "simulated": {...}, "raw": {...}} in mm, or None without truth."""
+def truth_errors(video: Path, report: dict, motion, simulated, alone=None) -> dict | None:
+    """{"trc", "frames", "kinematic": {...}, "simulated": {...}, "raw": {...}} in mm, or None without truth;
+    with `alone` (the body-alone stage's simulated motion, on the same control steps) "body_alone" too."""
     from services.pipeline.report import video_rows
     from services.reconstruction import JOINT_KEYPOINTS
     from services.reconstruction.metrics import evaluate
@@ -82,6 +83,8 @@ def truth_errors(video: Path, report: dict, motion, simulated) -> dict | None:
     motions = {"kinematic": np.asarray(motion.extras["keypoints3d"])[rows], "simulated": simulated.extras["keypoints3d"]}
     if "raw_keypoints3d" in motion.extras:
         motions["raw"] = np.asarray(motion.extras["raw_keypoints3d"])[rows]
+    if alone is not None and alone.num_frames == simulated.num_frames:
+        motions["body_alone"] = alone.extras["keypoints3d"]
     result = {"trc": path.name, "frames": int(whole.sum())}
     for name, points in motions.items():
         result[name] = {k: round(v, 1) for k, v in evaluate(points[whole], truth[whole], hips).items()}

@@ -52,6 +52,7 @@ class TrainConfig:
     eval_episodes: int = field(default=8, metadata={"help": "episodes per evaluation during training (sfv eval uses 32)"})
     handover_states: str | None = field(default=None, metadata={"help": "a .npz whose `states` start a share of the episodes at the clip's first frame (a scene-fit window after the first: the previous window's policy's states there, 002 section 5.3)"})
     handover_share: float = field(default=0.5, metadata={"help": "share of episodes started from --handover-states"})
+    start_from: str | None = field(default=None, metadata={"help": "a run directory (its best.pt) or checkpoint whose policy, value network and normaliser start this training (not its optimiser or samples); a policy with a residual root wrench's six more action numbers gives its joints'; on --resume the run's own checkpoint wins"})
     first_frame_share: float = field(default=0.0, metadata={"help": "share of episodes started at the reference's first frame, the rest from --init's source; 0: off (sfv pipeline: 0.5; measured: docs/training.md)"})
     env: EnvConfig = field(default_factory=EnvConfig)
     ppo: PPOConfig = field(default_factory=PPOConfig)

@@ -188,6 +188,8 @@ class Trainer:
         asi_version = 0
         if checkpoint is not None:
             asi_version = self._restore(learner, checkpoint)
+        elif config.start_from:
+            self._start_from(learner, config.start_from)
         learner.set_progress(self.samples)
         if config.runner == "ray" and not (config.ray_address or config.asi_address or config.redis_url):
             # A local Ray before the embedded ASI server: Ray forks its GCS and raylet (with a
@@ -217,6 +219,18 @@ class Trainer:
             finally:
                 metrics.close()
                 self.close()  # the workers stop before their ASI server does
+
+    def _start_from(self, learner: PPOLearner, source: str) -> None:
+        """`--start-from`: another run's (or checkpoint's) weights start this one; one line says which."""
+        path = Path(source)
+        if path.is_dir():
+            from services.training.run_dir import run_checkpoint
+
+            path = run_checkpoint(path, "best")
+        elif not path.is_file():
+            raise SfvError(f"--start-from {source}: no such run directory or checkpoint")
+        dropped = learner.start_from(load_checkpoint(path)["learner"])
+        log.info("started from %s%s", path, f" (its last {dropped} action numbers dropped)" if dropped else "")
 
     def _restore(self, learner: PPOLearner, checkpoint: dict) -> int:
         """Learner state and counters from a checkpoint; metrics rows after it are dropped. Returns its ASI version."""

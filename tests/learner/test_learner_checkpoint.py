@@ -136,3 +136,23 @@ def test_save_leaves_no_temp_file_and_replaces_atomically(tmp_path):
         save_checkpoint(path, {"bad": {1, 2}})
     assert load_checkpoint(path)["iteration"] == 2
     assert [entry.name for entry in path.parent.iterdir()] == [path.name]
+
+
+def test_a_learner_starts_from_another_s_weights_dropping_the_wrench_actions():
+    """The body-alone stage's start: the helped learner has a residual wrench's six more action numbers."""
+    helped = PPOLearner(OBS_DIM, ACT_DIM + 6, config(seed=1))
+    helped.update(rollout(helped, 1))  # trained a little: its normaliser and weights are not the initial ones
+    alone = PPOLearner(OBS_DIM, ACT_DIM, config(seed=2))
+    assert alone.start_from(helped.state_dict()) == 6
+    obs = torch.as_tensor(np.random.default_rng(3).normal(size=(5, OBS_DIM)), dtype=torch.float32)
+    with torch.no_grad():
+        torch.testing.assert_close(alone.policy(alone.normalizer(obs)), helped.policy(helped.normalizer(obs))[:, :ACT_DIM])
+        torch.testing.assert_close(alone.value(alone.normalizer(obs)), helped.value(helped.normalizer(obs)))
+    # The optimiser starts afresh; a learner for another observation, or one with fewer actions, cannot start it.
+    assert not alone.policy_optimizer.state
+    with pytest.raises(SfvError, match="obs_dim/act_dim"):
+        alone.start_from(PPOLearner(OBS_DIM + 1, ACT_DIM + 6, config()).state_dict())
+    with pytest.raises(SfvError, match="actions may only be dropped"):
+        PPOLearner(OBS_DIM, ACT_DIM + 7, config()).start_from(helped.state_dict())
+    with pytest.raises(SfvError, match="do not fit"):
+        PPOLearner(OBS_DIM, ACT_DIM, PPOConfig(policy_hidden=(8,), value_hidden=(8,))).start_from(helped.state_dict())
