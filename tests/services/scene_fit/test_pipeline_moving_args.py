@@ -15,13 +15,19 @@ def _one_line_error(capsys) -> str:
     return err[-1]
 
 
-def test_scene_and_resume_need_the_moving_camera(tmp_path, capsys):
+def test_the_scene_needs_the_moving_camera_and_resume_checks_its_video_first(tmp_path, capsys):
     scene = tmp_path / "boxes.yaml"
     scene.write_text(BAD_BOX)
     assert main(["pipeline", str(tmp_path / "v.mp4"), "--out", str(tmp_path / "o"), "--scene", str(scene)]) == 2
     assert "--scene needs --camera moving" in _one_line_error(capsys)
+    # --resume continues a static run too; a missing video is still one line before anything is written.
     assert main(["pipeline", str(tmp_path / "v.mp4"), "--out", str(tmp_path / "o"), "--resume"]) == 2
-    assert "--resume needs --camera moving" in _one_line_error(capsys)
+    assert "v.mp4: no such video file" in _one_line_error(capsys)
+    assert main(["pipeline", str(tmp_path / "v.mp4"), "--out", str(tmp_path / "o"), "--resume", "--finish-only"]) == 2
+    assert "--finish-only and --resume: choose one" in _one_line_error(capsys)
+    assert main(["pipeline", str(tmp_path / "v.mp4"), "--out", str(tmp_path / "o"), "--camera", "moving",
+                 "--body-alone", "off"]) == 2
+    assert "--body-alone is for --camera static" in _one_line_error(capsys)
     assert not (tmp_path / "o").exists()
 
 
