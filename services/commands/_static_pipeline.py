@@ -50,8 +50,8 @@ def _finish_body_alone(args, out: Path, helped: dict) -> dict:
                                 _finish(args, alone, alone / "motion.npz", alone / "train"))
     else:
         needed, line = stage_decision(helped, args.body_alone)
-        summary = stage_summary(False, line.split(" (")[0] + ": not trained (--finish-only; --resume trains it)"
-                                if needed else line)
+        summary = stage_summary(False, "the body-alone stage: needed, not trained (--finish-only plays what is "
+                                       "trained; --resume trains it)" if needed else line)
     report = record_stage(out / "report.json", summary)
     print(report["controller"])
     return report
