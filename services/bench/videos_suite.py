@@ -199,12 +199,10 @@ def alone_motion(stage: dict):
 
 
 def completed_without_help(report: dict) -> bool:
-    """Whether the controller the pipeline gives completes the clip from its first frame with no help:
-    the body-alone stage's where it ran, else the first controller with its help at zero."""
-    stage, unaided = report.get("body_alone") or {}, report.get("without_residual_force")
-    if stage.get("ran"):
-        return not stage["fell"]
-    return not (unaided or report)["fell"]
+    """Whether the controller the pipeline gives completes the clip from its first frame with no help."""
+    from services.pipeline.body_alone import final_episode
+
+    return not final_episode(report, report.get("body_alone") or {})[1]["fell"]
 
 
 def markdown(rows: list[dict]) -> str:

@@ -61,10 +61,10 @@ def _stage_config(args, motion: Path, run_dir: Path, resume: bool, residual_forc
     """One training's TrainConfig: the pipeline's defaults and the flags given; with --resume and a run
     that has a checkpoint there, that run's saved settings (the flags given follow `sfv train --resume`)."""
     from services.commands._pipeline_settings import STATIC_DEFAULTS, train_config
-    from services.training.run_dir import CONFIG_FILE, trained_samples
+    from services.training.run_dir import CONFIG_FILE, checkpoint_files
 
     saved = None
-    if resume and (run_dir / CONFIG_FILE).is_file() and trained_samples(run_dir) is not None:
+    if resume and (run_dir / CONFIG_FILE).is_file() and checkpoint_files(run_dir):  # `_train` reads the checkpoint
         saved = json.loads((run_dir / CONFIG_FILE).read_text())
     config = train_config(args, str(motion), str(run_dir), STATIC_DEFAULTS, saved=saved)
     if residual_force is not None:

@@ -94,17 +94,23 @@ def stage_summary(ran: bool, line: str, alone: dict | None = None) -> dict:
     return summary
 
 
-def controller_line(helped: dict, summary: dict) -> str:
-    """Which controller the pipeline gives and how it ends without help, in one line."""
+def final_episode(helped: dict, summary: dict) -> tuple[str, dict]:
+    """(which controller, its first-frame episode with no help: fell, fell_at_s, normalized_return): the
+    body-alone stage's where it ran, else the first controller's with its help at zero (or, trained
+    without help, its own)."""
     if summary.get("ran"):
-        ending = (f"falls at {summary['fell_at_s']:.2f} s" if summary["fell"] else "completes the clip from its first frame")
-        return f"controller: the body alone ({ALONE_DIR}/train, no help): {ending}, NR {summary['normalized_return']:.3f}"
+        return f"the body alone ({ALONE_DIR}/train, no help)", summary
     unaided = helped.get("without_residual_force")
     if unaided is None:
-        ending = f"falls at {helped['fell_at_s']:.2f} s" if helped["fell"] else "completes the clip from its first frame"
-        return f"controller: train (no help): {ending}, NR {helped['normalized_return']:.3f}"
-    ending = (f"falls at {unaided['fell_at_s']:.2f} s" if unaided["fell"] else "completes the clip from its first frame")
-    return f"controller: train, with its help at zero: {ending}, NR {unaided['normalized_return']:.3f}"
+        return "train (no help)", helped
+    return "train, with its help at zero", unaided
+
+
+def controller_line(helped: dict, summary: dict) -> str:
+    """Which controller the pipeline gives and how it ends without help, in one line."""
+    which, episode = final_episode(helped, summary)
+    ending = f"falls at {episode['fell_at_s']:.2f} s" if episode["fell"] else "completes the clip from its first frame"
+    return f"controller: {which}: {ending}, NR {episode['normalized_return']:.3f}"
 
 
 def record_stage(report_path: Path, summary: dict) -> dict:
