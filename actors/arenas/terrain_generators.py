@@ -9,7 +9,9 @@ so a pelvis-height fall floor measured from 0 never fires on a hill.
 
 Each generator also returns the *support* profile (cols,): the ground the reference's root
 follows, gaps bridged and smoothed over SUPPORT_SMOOTH_M (a flat-ground clip climbs a step
-over a stride, not at the riser); on rough ground the bumps' tops across the field.
+over a stride, not at the riser); on rough ground the bumps' tops across the field. And, when
+asked, the *footing* (rows, cols): the heights with the trenches bridged, unsmoothed, the ground a
+foot's height is measured from (`actors/envs/ground.py`).
 """
 from __future__ import annotations
 
@@ -57,13 +59,17 @@ def check_terrain(kind: str | None, difficulty: float) -> None:
         raise ValueError(f"--terrain-difficulty must lie in [0, 1], got {difficulty}")
 
 
-def generate(kind: str, difficulty: float, rng: np.random.Generator, grid: TerrainGrid, out: np.ndarray) -> np.ndarray:
-    """Write the heights of a fresh terrain into `out` (rows, cols); return its support (cols,)."""
+def generate(kind: str, difficulty: float, rng: np.random.Generator, grid: TerrainGrid, out: np.ndarray,
+             footing: np.ndarray | None = None) -> np.ndarray:
+    """Write the heights of a fresh terrain into `out` (rows, cols); return its support (cols,).
+    With `footing` (rows, cols), also write the heights with the trenches bridged into it."""
     check_terrain(kind, difficulty)
     xs = grid.xs
     profile, support = np.zeros(grid.cols), np.zeros(grid.cols)
     if kind == "rough":
         out[:] = _bumps(grid, difficulty, rng)
+        if footing is not None:
+            footing[:] = out
         return _smooth(out.max(axis=0), grid.cell)  # the bumps' tops: a start never stands in one
     start = np.searchsorted(xs, FLAT_PAD_M)
     if kind == "mixed":
@@ -71,6 +77,8 @@ def generate(kind: str, difficulty: float, rng: np.random.Generator, grid: Terra
     else:
         _PROFILES[kind](xs[start:], difficulty, rng, 0.0, profile[start:], support[start:])
     out[:] = profile[None, :]
+    if footing is not None:
+        footing[:] = support[None, :]  # the profile, with each trench at the height of its edges
     return _smooth(support, grid.cell)
 
 

@@ -209,6 +209,7 @@ class FeatureExtractor:
         self._lin = np.zeros((b, n, 3))
         self._outer = np.zeros((b, n, 3, 3))
         self._ee_rel = np.zeros((b, len(self._ee), 3))
+        self._ee_world = np.zeros((b, len(self._ee), 3))
         self._sign = np.zeros((b, n, 1))
         self._offset = np.zeros((b, 1, 3))
         self.sim = RewardFeatures.zeros(nv, b, self.reward_shape)
@@ -333,6 +334,10 @@ class FeatureExtractor:
         np.copyto(sim.com_vel, self.com_vel)
         np.copyto(sim.com, self.com)
         return sim
+
+    def end_effector_positions(self) -> np.ndarray:
+        """(B, E, 3) world positions of the captured rows' end effectors (a buffer, overwritten)."""
+        return np.take(self.pos, self._ee, axis=1, out=self._ee_world)
 
     # ------------------------------------------------------------ single-env helpers
     def observation(self, data: mujoco.MjData, phase: float, out: np.ndarray, reference: tuple | None = None) -> np.ndarray:

@@ -139,9 +139,11 @@ class ImitationCore:
         reference = self.track.features.take(rows, self._reference)
         self.root_sync.apply(rows, features.pos[:, 0, :2], reference)
         roots = self.reference_obs.gather(rows, self.root_sync.offset)
+        sim = features.reward_features(yaw)
         if self.ground is not None:
             self.ground.follow(reference, roots)  # the clip, recorded on the flat, over this ground
-        rewards = self.mode.rewards(rows, features, features.reward_features(yaw), reference, self.terms, self.early_termination)
+            self.ground.ground_end_effectors(sim, features.end_effector_positions())  # hands and feet over the ground under each
+        rewards = self.mode.rewards(rows, features, sim, reference, self.terms, self.early_termination)
         if self.residual is not None:
             rewards *= self.residual.reward_factor()
         self.fell |= self.mode.terminated

@@ -4,10 +4,21 @@ One `Ground` per env core, over B envs' height grids (B, rows, cols) and support
 (B, cols) (`actors/arenas/terrain_generators.py`); a vector env's envs write rows of its
 arrays (`rows(i)`), as their scene vectors do. Per episode an env draws a fresh terrain
 (`regenerate`) and puts its character on it (`lift`); per step the core moves the gathered
-reference up onto the support under its root (`follow`: root, end effectors, centre of mass
-and the future roots the policy observes, so the reward and the observation compare a
-clip recorded on the flat with a character on a hill) and writes the heightmap
-(`heightmap`). The flat arenas have no `Ground` and none of this runs.
+reference up onto the support under its root (`follow`: root, centre of mass and the future
+roots the policy observes, so the reward and the observation compare a clip recorded on the
+flat with a character on a hill), measures the character's hands and feet from the ground
+under each (`ground_end_effectors`) and writes the heightmap (`heightmap`). The flat arenas
+have no `Ground` and none of this runs.
+
+End effectors, as DeepMimic measures them on terrain (`SceneImitate::CalcRewardImitate`: the
+simulated end effector's height less `mGround->SampleHeight` under it, the kinematic one's less
+the kinematic character's origin height): the reward compares each foot's clearance over the
+ground under it with the clip's clearance over its flat floor. Here the ground under a foot is
+the *footing* (the heights with trenches bridged, so a foot stepping over a gap is measured from
+its edges, not from the trench's floor 1 m down). Lifting the reference's feet by the support
+under its root instead, as this code did first, put a reference foot 15 cm into a step's tread
+or above it wherever the smoothed support and the tread differ, so the reward paid the policy
+for dragging its feet at the height of a ramp that is not there.
 """
 from __future__ import annotations
 
@@ -32,11 +43,11 @@ def heightmap_points() -> np.ndarray:
 
 
 class Ground:
-    def __init__(self, arena, heights: np.ndarray, support: np.ndarray):
-        """`arena`: a `TerrainArena`; `heights` (B, rows, cols) and `support` (B, cols): the envs'
-        grids (views a vector env shares with its envs)."""
+    def __init__(self, arena, heights: np.ndarray, support: np.ndarray, footing: np.ndarray):
+        """`arena`: a `TerrainArena`; `heights` and `footing` (B, rows, cols) and `support` (B, cols):
+        the envs' grids (views a vector env shares with its envs)."""
         self.arena = arena
-        self.heights, self.support = heights, support
+        self.heights, self.support, self.footing = heights, support, footing
         b = heights.shape[0]
         grid = arena.grid
         self._xs = grid.xs
@@ -52,20 +63,23 @@ class Ground:
         self._pair = np.zeros((2, b))
         self._base = np.arange(b, dtype=np.int64) * grid.cols
         self._support_flat = support.reshape(-1)
+        self._feet: HeightQuery | None = None  # made at the first call, for the character's end effectors
+        self._feet_xy = np.zeros((b, 0, 2))
 
     @classmethod
     def of(cls, arena, batch: int) -> "Ground":
         g = arena.grid
-        return cls(arena, np.zeros((batch, g.rows, g.cols), np.float32), np.zeros((batch, g.cols)))
+        grids = np.zeros((2, batch, g.rows, g.cols), np.float32)
+        return cls(arena, grids[0], np.zeros((batch, g.cols)), grids[1])
 
     def rows(self, i: int) -> "Ground":
         """Env i's ground as a batch of one, over views of this one's arrays."""
-        return Ground(self.arena, self.heights[i:i + 1], self.support[i:i + 1])
+        return Ground(self.arena, self.heights[i:i + 1], self.support[i:i + 1], self.footing[i:i + 1])
 
     # ------------------------------------------------------------------ episodes
     def regenerate(self, i: int, model: mujoco.MjModel, difficulty: float, rng: np.random.Generator) -> None:
         """Env i's next terrain (the arena's kind at `difficulty`, drawn from `rng`), into `model`."""
-        self.support[i] = generate(self.arena.kind, difficulty, rng, self.arena.grid, self.heights[i])
+        self.support[i] = generate(self.arena.kind, difficulty, rng, self.arena.grid, self.heights[i], self.footing[i])
         self.arena.write(model, self.heights[i])
 
     def support_at(self, i: int, xy) -> float:
@@ -79,14 +93,24 @@ class Ground:
 
     # ------------------------------------------------------------------ steps
     def follow(self, reference, roots) -> None:
-        """Lift the batch's gathered reference rows (`RewardFeatures`, world z) and the future
-        reference roots `roots` ((B, K, 3), None) by the support under each reference root."""
+        """Lift the batch's gathered reference rows (`RewardFeatures`: root and centre of mass,
+        world z) and the future reference roots `roots` ((B, K, 3), None) by the support under
+        each reference root. The end effectors keep the clip's heights over its flat floor
+        (`ground_end_effectors` measures the character's the same way)."""
         lift = self._support_under(reference.root_pos)
         reference.root_pos[:, 2] += lift
         reference.com[:, 2] += lift
-        reference.end_effectors[..., 2] += lift[:, None]
         if roots is not None:
             roots[0][..., 2] += lift[:, None]
+
+    def ground_end_effectors(self, sim, positions: np.ndarray) -> None:
+        """Make the character's end-effector heights (`RewardFeatures`, world z) heights over the
+        footing under each, from their world positions `positions` (B, E, 3)."""
+        if self._feet is None or self._feet_xy.shape[1] != positions.shape[1]:
+            self._feet = HeightQuery(self.footing, self.arena.frame, self.arena.grid, positions.shape[1])
+            self._feet_xy = np.zeros((positions.shape[0], positions.shape[1], 2))
+        np.copyto(self._feet_xy, positions[..., :2])
+        sim.end_effectors[..., 2] -= self._feet(self._feet_xy)
 
     def _support_under(self, root_pos: np.ndarray) -> np.ndarray:
         """(B,) support heights under world points root_pos (B, 3): linear along the profile."""

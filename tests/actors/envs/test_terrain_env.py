@@ -72,6 +72,45 @@ def test_the_reference_follows_the_support_under_its_root():
     assert beyond.com[0, 2] == pytest.approx(0.8 + STEP_H) and np.allclose(roots[0][..., 2], STEP_H)
 
 
+def test_feet_are_measured_from_the_ground_under_each_and_a_gap_from_its_edges():
+    """DeepMimic's end-effector heights on terrain: over the ground under each foot, so a foot
+    on a step's tread in the clip's pose matches the clip's foot on its flat floor."""
+    ground = _step_ground(1)
+    xs = ground.arena.grid.xs
+    gap = (xs > 2.0) & (xs < 2.3)
+    ground.heights[:, :, gap] -= 1.0  # a trench in the tread beyond the step
+    ground.footing[:] = np.where(xs >= STEP_X, STEP_H, 0.0)  # bridged: the tread's height across the trench
+
+    class Sim:
+        end_effectors = np.zeros((1, 4, 3))
+
+    clearance = np.array([0.02, 0.10, 0.0, 0.3])
+    world = np.array([[[0.5, 0.1, 0.0], [1.5, -0.1, 0.0], [2.15, 0.1, 0.0], [2.6, 0.0, 0.0]]])
+    world[0, :, 2] = clearance + np.where(world[0, :, 0] >= STEP_X, STEP_H, 0.0)
+    sim = Sim()
+    sim.end_effectors[..., 2] = world[..., 2]
+    ground.ground_end_effectors(sim, world)
+    assert np.allclose(sim.end_effectors[0, :, 2], clearance, atol=1e-6)
+
+
+def test_a_stepping_env_rewards_the_feet_heights_over_the_footing_under_them(walk, monkeypatch):
+    """The core's reward sees each foot's height over the footing under it (steps: a profile
+    along the terrain frame's x), read here by an independent interpolation."""
+    monkeypatch.setattr("actors.arenas.terrain_generators.FLAT_PAD_M", -3.0)  # steps under the start too
+    starts = BufferedStarts(ReferenceStarts("rsi", np.random.default_rng(0)), batch=4)
+    env = VectorImitationEnv(walk, EnvConfig(terrain="steps", terrain_difficulty=1.0, terrain_curriculum=False), 1, starts, seed=0)
+    env.reset()
+    core, ground = env.core, env.core.ground
+    frame, xs = ground.arena.frame, ground.arena.grid.xs
+    for _ in range(20):
+        env.step(np.zeros((1, env.action_dim), np.float32))
+    feet = core.features.end_effector_positions()[0]
+    along = (feet[:, :2] - np.asarray(frame.origin)[:2]) @ np.asarray(frame.forward)[:2]
+    under = np.interp(along, xs, ground.footing[0, ground.footing.shape[1] // 2])
+    assert np.abs(under).max() > 0.05  # the feet stand over steps, not the flat
+    assert np.allclose(core.features.sim.end_effectors[0, :, 2], feet[:, 2] - under, atol=1e-5)
+
+
 def _lowest_foot_clearance(env):
     """Height of the lowest point of the walker's geoms over the ground under it (mj_ray down)."""
     model, data = env.model, env.data
