@@ -110,10 +110,14 @@ def _reconstruct(args, out: Path) -> Path:
     return save_motion(made.motion, out / "motion.npz")
 
 
-def _body_alone_stage(args, out: Path, helped: dict, resume: bool) -> dict:
-    """The second stage (`services/pipeline/body_alone.py`) where the helped controller needs its help;
-    DIR/report.json's `body_alone` and `controller` either way."""
-    from services.pipeline.body_alone import ALONE_DIR, helped_reference, record_stage, stage_decision, stage_summary
+def _body_alone_stage(args, out: Path, helped: dict, resume: bool, first: int) -> dict:
+    """The second stage (`services/pipeline/body_alone.py`) where the helped controller needs its help,
+    `first` samples, then on while it falls; DIR/report.json's `body_alone` and `controller` either way."""
+    import dataclasses
+
+    from services.pipeline.body_alone import (ALONE_DIR, further_samples, helped_reference, max_samples, record_stage,
+                                              stage_decision, stage_summary)
+    from services.training.run_dir import trained_samples
 
     needed, line = stage_decision(helped, args.body_alone)
     print(line)
@@ -124,12 +128,19 @@ def _body_alone_stage(args, out: Path, helped: dict, resume: bool) -> dict:
         if not (resume and motion_path.is_file()):
             motion_path = helped_reference(out, alone)
         config = _stage_config(args, motion_path, alone / "train", resume, residual_force=0.0)  # the body alone
+        cap = max_samples(first, args.body_alone_max_samples)
         trained = _train(config, progress=not args.quiet)
         if trained or not (alone / "report.json").is_file():
             report = _finish(args, alone, motion_path, alone / "train")
         else:
             report = json.loads((alone / "report.json").read_text())
-        summary = stage_summary(True, line, report)
+        while (more := further_samples(report, trained_samples(config.out) or 0, first, cap)) is not None:
+            print(f"the body-alone stage: its controller falls at {report['fell_at_s']:.2f} s; training on to "
+                  f"{more} samples (--body-alone-max-samples {cap})")
+            config = dataclasses.replace(config, samples=more)
+            _train(config, progress=not args.quiet)
+            report = _finish(args, alone, motion_path, alone / "train")
+        summary = stage_summary(True, line, report, samples=trained_samples(config.out))
     report = record_stage(out / "report.json", summary)
     print(report["controller"])
     return report
@@ -142,11 +153,14 @@ def run_static(args) -> int:
     from services.commands._person_args import frame_range, person_choice
     from services.commands._pipeline_settings import STATIC_DEFAULTS, train_config
     from services.console import attach_log_file
+    from services.pipeline.body_alone import max_samples
     from services.pose.video import probe_video
     from services.ray_session import connect_ray
 
     out: Path = args.out
     train = train_config(args, str(out / "motion.npz"), str(out / "train"), STATIC_DEFAULTS)  # a bad setting: one line before any work
+    budget = train.samples
+    max_samples(budget, args.body_alone_max_samples)  # a cap below the budget: one line before any work
     person_choice(args), frame_range(args)  # a bad --person / --frames: one line before any work
     probe_video(args.video)  # missing file / not a video / no frames: one-line error before any work
     resume = args.resume and (out / "motion.npz").is_file()
@@ -168,7 +182,7 @@ def run_static(args) -> int:
             helped = _finish(args, out, motion_path, Path(train.out))
         else:
             helped = json.loads((out / "report.json").read_text())
-        report = _body_alone_stage(args, out, helped, resume and not trained)  # a retrained helper: a new rollout
+        report = _body_alone_stage(args, out, helped, resume and not trained, budget)  # a retrained helper: a new rollout
     finally:
         if started_ray:
             ray.shutdown()

@@ -2,6 +2,8 @@
 reference of a body-alone training, when it runs, and what the report says."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -85,3 +87,68 @@ def test_the_report_names_the_controller_the_pipeline_gives(tmp_path):
     # Without the stage the controller is the helped one, judged with its help at zero.
     report = record_stage(path, stage_summary(False, "off"))
     assert report["controller"] == "controller: train, with its help at zero: falls at 1.00 s, NR 0.400"
+
+
+def test_a_stage_that_falls_trains_on_by_half_its_budget_up_to_the_cap():
+    from services.pipeline.body_alone import further_samples, max_samples
+
+    fell, completed = {"fell": True}, {"fell": False}
+    assert max_samples(2_000_000, None) == 4_000_000 and max_samples(2_000_000, 2_000_000) == 2_000_000
+    with pytest.raises(SfvError, match="--body-alone-max-samples: 1000 is below"):
+        max_samples(2_000_000, 1000)
+    assert further_samples(fell, 2_000_000, 2_000_000, 4_000_000) == 3_000_000
+    assert further_samples(fell, 3_500_000, 2_000_000, 4_000_000) == 4_000_000  # never past the cap
+    assert further_samples(fell, 4_000_000, 2_000_000, 4_000_000) is None
+    assert further_samples(completed, 2_000_000, 2_000_000, 4_000_000) is None
+
+
+def test_the_pipeline_stage_goes_on_from_its_checkpoint_until_the_body_alone_completes(tmp_path, monkeypatch, capsys):
+    """The stage's loop with the training and the rollout faked: at 2 M samples the body alone falls, at
+    3 M it completes, and the loop stops there."""
+    import argparse
+    import json
+
+    from services.commands import _static_pipeline as stage
+
+    trained = {"samples": 0}
+    outcomes = {2_000_000: 3.1, 3_000_000: None}
+
+    def fake_train(config, progress):
+        assert config.env.residual_force == 0.0
+        trained["samples"] = config.samples
+        return True
+
+    def fake_finish(args, out, motion, run):
+        fell_at = outcomes[trained["samples"]]
+        report = {"outcome": "x", "fell": fell_at is not None, "fell_at_s": fell_at, "normalized_return": 0.5,
+                  "files": {"report": str(out / "report.json")}, "joint_position_error_m": {"mean": 0.1},
+                  "reprojection_error_px": {"simulated": {"mean": 20.0}}}
+        (out / "report.json").write_text(json.dumps(report))
+        return report
+
+    monkeypatch.setattr(stage, "_train", fake_train)
+    monkeypatch.setattr(stage, "_finish", fake_finish)
+    monkeypatch.setattr("services.training.run_dir.trained_samples", lambda run: trained["samples"] or None)
+    monkeypatch.setattr("services.pipeline.body_alone.helped_reference", lambda run, out: (out.mkdir(parents=True), out / "motion.npz")[1])
+    helped = helped_report(alone_fell_at_s=1.0)
+    (tmp_path / "report.json").write_text(json.dumps(helped))
+    args = argparse.Namespace(body_alone="auto", body_alone_max_samples=None, quiet=True, samples=2_000_000, config=None)
+    monkeypatch.setattr(stage, "_stage_config", lambda args, motion, run, resume, residual_force=None: _Config(str(run)))
+    report = stage._body_alone_stage(args, tmp_path, helped, False, 2_000_000)
+    said = capsys.readouterr().out
+    assert "falls at 3.10 s; training on to 3000000 samples" in said
+    assert report["body_alone"]["samples"] == 3_000_000 and not report["body_alone"]["fell"]
+    assert report["controller"].startswith("controller: the body alone") and "completes" in report["controller"]
+
+
+@dataclasses.dataclass(frozen=True)
+class _Env:
+    residual_force: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class _Config:
+    """The fields of a TrainConfig the stage's loop reads."""
+    out: str
+    samples: int = 2_000_000
+    env: _Env = _Env()

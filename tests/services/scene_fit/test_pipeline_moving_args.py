@@ -28,6 +28,9 @@ def test_the_scene_needs_the_moving_camera_and_resume_checks_its_video_first(tmp
     assert main(["pipeline", str(tmp_path / "v.mp4"), "--out", str(tmp_path / "o"), "--camera", "moving",
                  "--body-alone", "off"]) == 2
     assert "--body-alone is for --camera static" in _one_line_error(capsys)
+    assert main(["pipeline", str(tmp_path / "v.mp4"), "--out", str(tmp_path / "o"), "--samples", "1000",
+                 "--body-alone-max-samples", "999"]) == 2
+    assert "--body-alone-max-samples: 999 is below the stage's first budget (--samples 1000)" in _one_line_error(capsys)
     assert not (tmp_path / "o").exists()
 
 
