@@ -15,7 +15,6 @@ def test_the_summary_leaves_out_fallen_envs():
     assert row["yaw_rate_deg_s"]["max"] == 10.0 and row["speed_m_s"]["max"] == 1.0
 
 
-@pytest.mark.slow
 def test_the_first_principal_direction_turns_a_walker_left_and_right():
     from actors.envs.tasks.config import TaskEnvConfig
     from actors.envs.tasks.vector_task_env import VectorTaskEnv
