@@ -64,7 +64,6 @@ class Ground:
         self._base = np.arange(b, dtype=np.int64) * grid.cols
         self._support_flat = support.reshape(-1)
         self._feet: HeightQuery | None = None  # made at the first call, for the character's end effectors
-        self._feet_xy = np.zeros((b, 0, 2))
 
     @classmethod
     def of(cls, arena, batch: int) -> "Ground":
@@ -106,11 +105,9 @@ class Ground:
     def ground_end_effectors(self, sim, positions: np.ndarray) -> None:
         """Make the character's end-effector heights (`RewardFeatures`, world z) heights over the
         footing under each, from their world positions `positions` (B, E, 3)."""
-        if self._feet is None or self._feet_xy.shape[1] != positions.shape[1]:
+        if self._feet is None or self._feet.out.shape[1] != positions.shape[1]:
             self._feet = HeightQuery(self.footing, self.arena.frame, self.arena.grid, positions.shape[1])
-            self._feet_xy = np.zeros((positions.shape[0], positions.shape[1], 2))
-        np.copyto(self._feet_xy, positions[..., :2])
-        sim.end_effectors[..., 2] -= self._feet(self._feet_xy)
+        sim.end_effectors[..., 2] -= self._feet(positions)  # the lookup reads x, y and ignores z
 
     def _support_under(self, root_pos: np.ndarray) -> np.ndarray:
         """(B,) support heights under world points root_pos (B, 3): linear along the profile."""
