@@ -12,6 +12,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 
 @dataclass(frozen=True)
 class FlatFloor:
@@ -20,6 +22,15 @@ class FlatFloor:
     geom_name: str = "floor"
     scene = None  # nothing in it moves per episode (the Arena interface, `actors/arenas/base.py`)
     terrain = None  # level ground (`actors/arenas/terrain.py` is the one that is not)
+    grade = 0.0  # the ground interface the task envs read (`actors/arenas/slope.py`: the inclined plane)
+
+    @property
+    def gradient(self) -> np.ndarray:
+        return np.zeros(2)
+
+    def height_at(self, xy) -> np.ndarray:
+        """The ground's height under world points `xy` (..., 2): zero everywhere."""
+        return np.zeros(np.shape(xy)[:-1])
 
     def obstacle_geom_ids(self, model) -> tuple[int, ...]:
         """No obstacles: the ground is not one."""

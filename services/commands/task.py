@@ -1,13 +1,15 @@
 """`sfv task`: task policies that reuse a motor module (NPMP 004 §3.4), or from scratch.
 
-    sfv task go-to|push-box --module MODULE --out RUN [--action latent|joint] [--samples N] [--config F.yaml] [--resume]
+    sfv task go-to|push-box --module MODULE --out RUN [--action latent|joint] [--slope 0.15] [--samples N] [--config F.yaml] [--resume]
     sfv task SPEC [--module MODULE] --out RUN            (a registered task spec: npmp-go-to-latent, ...)
     sfv task eval RUN [--episodes 32] [--seed K]        (one JSON object)
     sfv task render RUN --video OUT.mp4 [--episodes 2]
     sfv task heatmap RUN --out heatmap.png [--episodes 2]   (go-to success against the target's position, 004 Fig. 6B)
 
 `--action latent` trains a policy that outputs z for the module's frozen decoder; `--action
-joint` trains absolute PD targets from scratch (no module needed). The run directory is a
+joint` trains absolute PD targets from scratch (no module needed). `--slope G` puts the task on
+an incline of grade G (SFV Fig. 8's push up and down a 15 % slope: `actors/arenas/slope.py`); its
+eval splits success and falls by up, down and across. The run directory is a
 training run's: config.json, metrics.jsonl (success_rate, time_to_target_s per iteration),
 TensorBoard events, checkpoints, learning_curve.png. `services/tasks/evaluation.py` defines
 every eval figure.
@@ -33,7 +35,7 @@ def task_schema():
 
     aliases = (Alias("--module", ("env.module",)), Alias("--action", ("env.action",)),
                Alias("--latent-scale", ("env.latent_scale",)), Alias("--horizon-s", ("env.horizon_s",)),
-               Alias("--batch-size", ("ppo.batch_size",)))
+               Alias("--batch-size", ("ppo.batch_size",)), Alias("--slope", ("env.slope",)))
     fixed = {"out", "env.task", "job_id", "curriculum_start_s", "curriculum_samples", "eval_every", "eval_episodes", "max_policy_lag"}
     return ConfigSchema(TaskConfig, "sfv task", aliases, SAFE_ON_RESUME, frozenset(fixed))
 

@@ -25,6 +25,9 @@ class TaskEnvConfig:
                                    "directions around its posterior centre (at most 16); 0: the whole latent around z = 0 (measured: docs/motor.md)"})
     control_hz: float = field(default=30.0, metadata={"help": "policy (and decoder) queries per second"})
     physics: PhysicsConfig = field(default_factory=PhysicsConfig, metadata={"help": "MuJoCo model settings"})
+    slope: float = field(default=0.0, metadata={"help": "the ground's grade (rise over run) along world +x: 0 is the flat floor, 0.15 SFV Fig. 8's 15 % slope "
+                         "(actors/arenas/slope.py); on a slope episodes start facing any way, so pushes and walks go up, down and across it, and the "
+                         "policy sees the grade in its heading frame"})
     horizon_s: float = field(default=10.0, metadata={"help": "episode length (seconds); the horizon truncates, a fall terminates"})
     start_motion: str = field(default="deepmimic:walk,deepmimic:run", metadata={"help": "episodes start from a random frame of one of these clips "
                               "(comma-separated; poses the experts know), moved to the origin: walk and run frames give starts at 1.3 and 3.6 m/s "
@@ -65,6 +68,8 @@ class TaskEnvConfig:
             out.append(f"--action must be one of {', '.join(ACTION_SPACES)}, got {self.action!r}")
         if self.action == "latent" and not self.module:
             out.append("--action latent needs --module MODULE_DIR (a distilled motor module)")
+        if not 0.0 <= self.slope <= 1.0:  # NaN fails too
+            out.append(f"--slope must lie in [0, 1] (rise over run; 0.15 is a 15 % slope), got {self.slope}")
         if not 0 <= self.latent_directions <= 16:
             out.append(f"--env.latent-directions must be 0-16, got {self.latent_directions}")
         for name in ("latent_scale", "control_hz", "horizon_s", "success_radius"):

@@ -12,6 +12,9 @@ prop (any geom that is neither the floor nor the walker's, the push box) is a fa
 joint-space policy trained without it learnt to prop its torso on the box and shove it while
 its pelvis stayed above 0.3 m and its feet alone touched the floor: a collapse the floor rule
 cannot see. Hands and arms may touch the box; pushing is what the task asks.
+
+On a slope (`actors/arenas/slope.py`) the pelvis's height is measured from the ground under it:
+0.3 m above z = 0 is 0.75 m under the incline 5 m downhill of the origin on a 15 % grade.
 """
 from __future__ import annotations
 
@@ -22,7 +25,8 @@ from actors.envs.ground_facts import GroundFacts
 
 
 class FloorFall(FallDetector):
-    def __init__(self, humanoid):
+    def __init__(self, humanoid, ground=None):
+        """`ground`: anything with `height_at(xy)` (a slope) to measure the pelvis from; None: z = 0."""
         upright = GroundFacts.upright(humanoid.character)  # the feet may touch, nothing else
         super().__init__(humanoid, fall_contact_links(upright, character=humanoid.character), MIN_ROOT_HEIGHT)
         model = humanoid.model
@@ -31,9 +35,13 @@ class FloorFall(FallDetector):
         self.prop = ~body_geom_mask(model, humanoid.body_ids)
         self.prop[self.floor] = False
         self.has_props = bool(self.prop.any())
+        self.ground = ground
 
     def __call__(self, data: mujoco.MjData) -> bool:
-        if data.qpos[self._root_z_index] < self.min_root_height:
+        height = data.qpos[self._root_z_index]
+        if self.ground is not None:
+            height -= float(self.ground.height_at(data.qpos[:2]))
+        if height < self.min_root_height:
             return True
         if data.ncon == 0:
             return False

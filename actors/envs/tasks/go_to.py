@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from actors.arenas.slope import task_floor
 from actors.envs.tasks.geometry import polar, to_heading_frame, wrap_angle
 
 SPEED_WEIGHT, HEADING_WEIGHT = 0.7, 0.3
@@ -22,16 +23,28 @@ SPEED_WEIGHT, HEADING_WEIGHT = 0.7, 0.3
 
 class GoToTask:
     obs_dim = 6
-    arena = None  # a flat floor
+
+    @staticmethod
+    def arena_for(config):
+        """The flat floor, or the slope of `--env.slope` (`actors/arenas/slope.py`)."""
+        return task_floor(config.slope)
 
     def __init__(self, config, num_envs: int, model=None):
         self.config = config
+        self.arena = self.arena_for(config)
         self.target = np.zeros((num_envs, 2))
+        self._start = np.zeros((num_envs, 2))
         self.speed = np.ones(num_envs)
         self.heading = np.zeros(num_envs)
 
     def reset(self, i: int, root_xy: np.ndarray, yaw: float, rng: np.random.Generator, data=None) -> None:
+        self._start[i] = root_xy
         self._draw(i, root_xy, rng)
+
+    def first_direction(self, i: int) -> np.ndarray:
+        """The unit xy direction from env i's start to its first target."""
+        d = self.target[i] - self._start[i]
+        return d / max(float(np.linalg.norm(d)), 1e-9)
 
     def _draw(self, i: int, root_xy: np.ndarray, rng: np.random.Generator) -> None:
         c = self.config
@@ -74,4 +87,4 @@ class GoToTask:
 
     def marker(self, i: int) -> np.ndarray:
         """World position of env i's target (for the renderer)."""
-        return np.array([self.target[i, 0], self.target[i, 1], 0.0])
+        return np.array([self.target[i, 0], self.target[i, 1], float(self.arena.height_at(self.target[i]))])

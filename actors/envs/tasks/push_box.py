@@ -12,13 +12,19 @@ exp(-2 max(d_box - 0.6, 0)^2); push: the box's speed toward its target, clipped 
 The box within `success_radius` of its target adds `success_bonus` and a new target is drawn
 beyond the box. Task features (11, heading frame): box x, y, distance, box yaw cos, sin; box
 velocity x, y; target x, y from the root; target x, y from the box.
+
+On SFV Fig. 8's slope (`--env.slope`, `actors/arenas/slope.py`) the box is set down flush on
+the incline at its yaw, and its yaw is read from its x axis (a box resting on a slope is not
+a pure yaw rotation). Everything the task measures stays in the horizontal plane.
 """
 from __future__ import annotations
 
 import mujoco
 import numpy as np
 
-from actors.arenas.push_box import PushBoxArena
+from actors.arenas.push_box import BOX_BODY, PushBoxArena
+from actors.arenas.slope import task_floor
+from actors.character.quaternion import quat_mul
 from actors.envs.tasks.geometry import polar, to_heading_frame, wrap_angle
 
 NEAR_M, APPROACH_M, PUSH_SPEED = 0.6, 0.7, 1.0
@@ -26,10 +32,16 @@ NEAR_M, APPROACH_M, PUSH_SPEED = 0.6, 0.7, 1.0
 
 class PushBoxTask:
     obs_dim = 11
-    arena = PushBoxArena()
+
+    @staticmethod
+    def arena_for(config) -> PushBoxArena:
+        return PushBoxArena(floor=task_floor(config.slope))
 
     def __init__(self, config, num_envs: int, model: mujoco.MjModel | None = None):
         self.config = config
+        self.arena = self.arena_for(config)
+        self._tilt = getattr(self.arena.floor, "tilt_quat", np.array([1.0, 0.0, 0.0, 0.0]))
+        self._lift = self.arena.half_size[2] / np.cos(np.arctan(self.arena.grade))  # the centre above the incline, flush
         self.target = np.zeros((num_envs, 2))
         self.box = np.zeros((num_envs, 3))
         self.box_vel = np.zeros((num_envs, 2))
@@ -37,14 +49,15 @@ class PushBoxTask:
         if model is not None:
             joint = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "box_root")
             self.qpos_adr, self.qvel_adr = int(model.jnt_qposadr[joint]), int(model.jnt_dofadr[joint])
+            self.body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, BOX_BODY)
 
     def reset(self, i: int, root_xy: np.ndarray, yaw: float, rng: np.random.Generator, data=None) -> None:
         c = self.config
         box_xy = root_xy + polar(rng, c.box_distance, yaw, np.pi / 4)
         box_yaw = rng.uniform(-np.pi, np.pi)
         q, v = self.qpos_adr, self.qvel_adr
-        data.qpos[q:q + 3] = (box_xy[0], box_xy[1], self.arena.half_size[2])
-        data.qpos[q + 3:q + 7] = (np.cos(box_yaw / 2), 0.0, 0.0, np.sin(box_yaw / 2))
+        data.qpos[q:q + 3] = (box_xy[0], box_xy[1], float(self.arena.height_at(box_xy)) + self._lift)
+        data.qpos[q + 3:q + 7] = quat_mul(self._tilt, np.array([np.cos(box_yaw / 2), 0.0, 0.0, np.sin(box_yaw / 2)]))
         data.qvel[v:v + 6] = 0.0
         self._draw(i, root_xy, box_xy, rng)
 
@@ -56,8 +69,8 @@ class PushBoxTask:
         q, v = self.qpos_adr, self.qvel_adr
         self.box[i] = data.qpos[q:q + 3]
         self.box_vel[i] = data.qvel[v:v + 2]  # a free joint's linear velocity is in the world frame
-        w, z = data.qpos[q + 3], data.qpos[q + 6]
-        self.box_yaw[i] = 2.0 * np.arctan2(z, w)  # the box stays upright while pushed (tipping is rare and harmless here)
+        xmat = data.xmat[self.body]
+        self.box_yaw[i] = np.arctan2(xmat[3], xmat[0])  # its x axis's heading (tipping is rare and harmless here)
 
     def rewards(self, root_xy: np.ndarray, vel_xy: np.ndarray, yaw: np.ndarray, rng: np.random.Generator):
         box_xy = self.box[:, :2]
@@ -89,5 +102,10 @@ class PushBoxTask:
         out[:, 9:11] = to_heading_frame(self.target - box_xy, yaw)
         return out
 
+    def first_direction(self, i: int) -> np.ndarray:
+        """The unit xy direction of env i's push, box to target (the slope's figures split on it)."""
+        d = self.target[i] - self.box[i, :2]
+        return d / max(float(np.linalg.norm(d)), 1e-9)
+
     def marker(self, i: int) -> np.ndarray:
-        return np.array([self.target[i, 0], self.target[i, 1], 0.0])
+        return np.array([self.target[i, 0], self.target[i, 1], float(self.arena.height_at(self.target[i]))])

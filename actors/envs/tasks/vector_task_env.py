@@ -7,6 +7,15 @@ Observations are the 196 proprioceptive features (`FeatureExtractor`'s observati
 its phase; what the decoder sees) followed by the task's features in the heading frame. A
 finished env is reset at once (auto-reset) and its episode is logged: return, length, fall,
 whether and when the first target was reached, targets reached.
+
+On a slope (`--env.slope`, `actors/arenas/slope.py`) three things change, all so that the frozen
+decoder, which learnt on the flat, sees what it knows: its root-height feature is the height
+above the ground under the root (not above z = 0), episodes start turned to a random heading
+and set down on the incline (`slope_starts.py`), and the pelvis-height fall rule measures from
+the ground too. The task policy also observes the grade in its heading frame (2 numbers after
+the proprioception), and each episode logs the grade along its first task direction
+(`grade_along`: +0.15 straight up a 15 % slope, -0.15 straight down), which `sfv task eval`
+splits its figures by.
 """
 from __future__ import annotations
 
@@ -22,7 +31,9 @@ from actors.envs.tasks.action_spaces import make_action_space
 from actors.envs.tasks.config import TaskEnvConfig
 from actors.envs.tasks.floor_fall import FloorFall
 from actors.envs.tasks.go_to import GoToTask
+from actors.envs.tasks.geometry import to_heading_frame
 from actors.envs.tasks.push_box import PushBoxTask
+from actors.envs.tasks.slope_starts import set_down, turn_start
 from actors.envs.tasks.starts import ClipStarts
 
 TASK_CLASSES = {"go_to": GoToTask, "push_box": PushBoxTask}
@@ -40,6 +51,7 @@ class TaskEpisodeLog:
     successes: list = field(default_factory=list)  # reached at least one target
     first_success_s: list = field(default_factory=list)  # seconds to the first target (nan: none)
     targets_reached: list = field(default_factory=list)
+    grade_along: list = field(default_factory=list)  # the ground's rise over run along the first task direction (0 on the flat)
 
     def drain(self) -> dict[str, np.ndarray]:
         out = {k: np.asarray(v, np.float32) for k, v in self.__dict__.items()}
@@ -56,7 +68,9 @@ class VectorTaskEnv:
         self.config = config
         self.num_envs = m = num_envs
         self.gamma = gamma
-        self.humanoid = HUMANOID3D.build(config.physics, task_class.arena)
+        self.arena = task_class.arena_for(config)
+        self.sloped = self.arena.grade > 0.0
+        self.humanoid = HUMANOID3D.build(config.physics, self.arena)
         self.model = self.humanoid.model
         self.datas = [mujoco.MjData(self.model) for _ in range(m)]
         self.sim = MujocoSimulator([self.model] * m, self.datas, config.substeps)
@@ -64,11 +78,13 @@ class VectorTaskEnv:
         self.action_space = make_action_space(config)
         self.starts = ClipStarts(config.start_motion, config.physics, 1.0 / config.control_hz)
         self.features = FeatureExtractor(self.humanoid, m)
-        self.fall = FloorFall(self.humanoid)
+        self.fall = FloorFall(self.humanoid, self.arena if self.sloped else None)
+        self._walker_geoms = np.flatnonzero(np.isin(self.model.geom_bodyid, self.humanoid.body_ids))
         self.substeps = config.substeps
         self.rng = np.random.default_rng(seed)
         self.proprio_dim = self.features.obs_dim - 1  # the observation without its phase (actors/envs/tasks/proprioception.py)
-        self.obs_dim = self.proprio_dim + self.task.obs_dim
+        self.ground_dim = 2 if self.sloped else 0  # the grade in the heading frame
+        self.obs_dim = self.proprio_dim + self.ground_dim + self.task.obs_dim
         self.action_dim = self.action_space.action_dim
         self.obs = np.zeros((m, self.obs_dim), np.float32)
         self.final_obs = np.zeros_like(self.obs)
@@ -85,6 +101,7 @@ class VectorTaskEnv:
         self._len = np.zeros(m, np.int64)
         self._hits = np.zeros(m, np.int64)
         self._first_hit = np.full(m, -1, np.int64)
+        self._grade_along = np.zeros(m)
         self._max_steps = config.horizon_steps
         self._cap: int | None = None
         self._limit = np.full(m, self._max_steps, np.int64)  # each env's episode length
@@ -120,6 +137,9 @@ class VectorTaskEnv:
         qpos, qvel = self.starts.take(self.rng)
         character = self.humanoid.character  # its own coordinates come first (props follow them)
         data.qpos[:character.nq], data.qvel[:character.nv] = qpos, qvel
+        if self.sloped:
+            turn_start(data.qpos, data.qvel, self.rng.uniform(-np.pi, np.pi))
+            set_down(self.arena, self.model, data, self._walker_geoms)
         self.sim.forward(i)
         yaw = float(np.arctan2(data.xmat[1, 3], data.xmat[1, 0]))
         self.task.reset(i, data.qpos[:2].copy(), yaw, self.rng, data)
@@ -127,6 +147,7 @@ class VectorTaskEnv:
         data.ctrl[:] = data.actuator_length  # hold the start pose: no jerk in the first substeps
         self.features.capture(i, data)
         self.task.capture(i, data)
+        self._grade_along[i] = float(self.arena.gradient @ self.task.first_direction(i))
         self._ret[i] = self._disc[i] = 0.0
         self._discount[i] = 1.0
         self._len[i] = self._hits[i] = 0
@@ -174,9 +195,13 @@ class VectorTaskEnv:
     def _observe(self) -> None:
         f = self.features
         f.observations(0.0, self._full, f.heading())
-        self.obs[:, :self.proprio_dim] = self._full[:, :self.proprio_dim]
         root_xy, vel_xy, yaw = self._planar()
-        self.obs[:, self.proprio_dim:] = self.task.features(root_xy, vel_xy, yaw, self._task_obs)
+        p = self.proprio_dim
+        if self.sloped:  # root height above the ground under it; the grade as the character faces it
+            self._full[:, 0] -= self.arena.height_at(root_xy)
+            self.obs[:, p:p + 2] = to_heading_frame(np.broadcast_to(self.arena.gradient, root_xy.shape), yaw)
+        self.obs[:, :p] = self._full[:, :p]
+        self.obs[:, p + self.ground_dim:] = self.task.features(root_xy, vel_xy, yaw, self._task_obs)
 
     def _book(self, rewards: np.ndarray, reached: np.ndarray) -> None:
         self._ret += rewards
@@ -197,3 +222,4 @@ class VectorTaskEnv:
         log.successes.append(self._hits[i] > 0)
         log.first_success_s.append(self._first_hit[i] / self.config.control_hz if self._first_hit[i] >= 0 else np.nan)
         log.targets_reached.append(self._hits[i])
+        log.grade_along.append(self._grade_along[i])
