@@ -96,6 +96,9 @@ class PPOConfig:
         metadata={"help": "samples over which policy_lr and action_std move to their final values, then held (independent of the budget)"},
     )
     value_lr: float = field(default=1e-3, metadata={"help": "value learning rate (paper SGD: 0.01)"})
+    value_bfloat16: bool = field(default=False, metadata={"help": "the value network's matrix products in bfloat16 (autocast; the policy stays "
+                                 "float32): a faster update where the hardware has bfloat16 (AVX512-BF16 or AMX CPUs, GPUs), slower where it "
+                                 "is emulated (measured: docs/scaling.md)"})
     sgd_momentum: float = field(default=0.9, metadata={"help": "momentum when optimizer='sgd' (paper: 0.9)"})
     max_grad_norm: float | None = field(
         default=1.0, metadata={"help": "clip each network's gradient to this global L2 norm; None disables"}

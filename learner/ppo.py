@@ -165,7 +165,7 @@ class PPOLearner:
         self.torch_rng = torch.Generator().manual_seed(cfg.seed)
         self.np_rng = np.random.default_rng(cfg.seed)
         self.policy = PolicyNetwork(obs_dim, act_dim, cfg.policy_hidden, cfg.action_std, self.torch_rng).to(self.device)
-        self.value = ValueNetwork(obs_dim, cfg.value_hidden, self.torch_rng).to(self.device)
+        self.value = ValueNetwork(obs_dim, cfg.value_hidden, self.torch_rng, cfg.value_bfloat16).to(self.device)
         self.normalizer = ObservationNormalizer(obs_dim, cfg.obs_clip, cfg.normalizer_max_samples).to(self.device)
         self.policy_optimizer = self._make_optimizer(self.policy, cfg.policy_lr)
         self.policy_lr = float(cfg.policy_lr)  # the rate in force: annealed, or adapted to the KL

@@ -29,7 +29,8 @@ def _add_target(renderer: OffscreenRenderer, env: VectorTaskEnv) -> None:
     centre = env.task.marker(0)  # mjv_initGeom takes model-style sizes: a cylinder is (radius, half-height)
     radius = env.config.success_radius
     geom = scene.geoms[scene.ngeom]
-    mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_CYLINDER, np.array([radius, 0.01, 0.0]), centre + [0, 0, 0.01],
+    lift = 0.01 + radius * env.arena.grade  # a level disc on a slope: its uphill edge clears the incline
+    mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_CYLINDER, np.array([radius, 0.01, 0.0]), centre + [0, 0, lift],
                         np.eye(3).ravel(), np.asarray(TARGET_RGBA, np.float32))
     scene.ngeom += 1
     heading = getattr(env.task, "heading", None)
