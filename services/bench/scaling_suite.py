@@ -62,7 +62,7 @@ def steady_state(rows: list[dict]) -> dict[str, float]:
             "policy_lag": sum(r["policy_lag_mean"] for r in rest) / len(rest)}
 
 
-def _train(config: BenchConfig, out: Path, runner: str, workers: int, lag: int, kind: str) -> dict[str, float]:
+def _train(config: BenchConfig, out: Path, runner: str, workers: int, lag: int, kind: str, value_bfloat16: bool = False) -> dict[str, float]:
     import functools
 
     from services.bench.recorded_worker import PacedWorker, RecordedWorker
@@ -74,6 +74,7 @@ def _train(config: BenchConfig, out: Path, runner: str, workers: int, lag: int, 
                         init="rsi", seed=config.seed, env=env_config_for(config.physics_hz), runner=runner,
                         max_policy_lag=lag, eval_every=0, plot_every=0, checkpoint_every=1000)
     train.samples = config.scaling_iterations * train.ppo.batch_size
+    train.ppo.value_bfloat16 = value_bfloat16
     if kind != "real":
         train.torch_threads = config.scaling_learner_threads
         # A replayed batch is off-policy to every later version: the synchronous loop's updates
