@@ -110,13 +110,28 @@ def _reconstruct(args, out: Path) -> Path:
     return save_motion(made.motion, out / "motion.npz")
 
 
+def _train_while_falling(args, out: Path, motion_path: Path, config, report: dict, first: int, cap: int, what: str,
+                         flag: str):
+    """While `report` (the controller of `config` against the video) falls from the first frame, train on
+    from the checkpoint by `first` / 2 samples, up to `cap`, and play it again (`further_samples`).
+    Returns the last (config, report)."""
+    import dataclasses
+
+    from services.pipeline.body_alone import further_samples
+    from services.training.run_dir import trained_samples
+
+    while (more := further_samples(report, trained_samples(config.out) or 0, first, cap)) is not None:
+        print(f"{what}: its controller falls at {report['fell_at_s']:.2f} s; training on to {more} samples ({flag} {cap})")
+        config = dataclasses.replace(config, samples=more)
+        _train(config, progress=not args.quiet)
+        report = _finish(args, out, motion_path, Path(config.out))
+    return config, report
+
+
 def _body_alone_stage(args, out: Path, helped: dict, resume: bool, first: int) -> dict:
     """The second stage (`services/pipeline/body_alone.py`) where the helped controller needs its help,
     `first` samples, then on while it falls; DIR/report.json's `body_alone` and `controller` either way."""
-    import dataclasses
-
-    from services.pipeline.body_alone import (ALONE_DIR, further_samples, helped_reference, max_samples, record_stage,
-                                              stage_decision, stage_summary)
+    from services.pipeline.body_alone import ALONE_DIR, helped_reference, max_samples, record_stage, stage_decision, stage_summary
     from services.training.run_dir import trained_samples
 
     needed, line = stage_decision(helped, args.body_alone)
@@ -134,12 +149,8 @@ def _body_alone_stage(args, out: Path, helped: dict, resume: bool, first: int) -
             report = _finish(args, alone, motion_path, alone / "train")
         else:
             report = json.loads((alone / "report.json").read_text())
-        while (more := further_samples(report, trained_samples(config.out) or 0, first, cap)) is not None:
-            print(f"the body-alone stage: its controller falls at {report['fell_at_s']:.2f} s; training on to "
-                  f"{more} samples (--body-alone-max-samples {cap})")
-            config = dataclasses.replace(config, samples=more)
-            _train(config, progress=not args.quiet)
-            report = _finish(args, alone, motion_path, alone / "train")
+        config, report = _train_while_falling(args, alone, motion_path, config, report, first, cap,
+                                              "the body-alone stage", "--body-alone-max-samples")
         summary = stage_summary(True, line, report, samples=trained_samples(config.out))
     report = record_stage(out / "report.json", summary)
     print(report["controller"])
@@ -156,11 +167,13 @@ def run_static(args) -> int:
     from services.pipeline.body_alone import max_samples
     from services.pose.video import probe_video
     from services.ray_session import connect_ray
+    from services.training.run_dir import trained_samples
 
     out: Path = args.out
     train = train_config(args, str(out / "motion.npz"), str(out / "train"), STATIC_DEFAULTS)  # a bad setting: one line before any work
     budget = train.samples
-    max_samples(budget, args.body_alone_max_samples)  # a cap below the budget: one line before any work
+    helped_cap = max_samples(budget, args.helped_max_samples, "--helped-max-samples")  # a cap below the budget: one line before any work
+    max_samples(budget, args.body_alone_max_samples)
     person_choice(args), frame_range(args)  # a bad --person / --frames: one line before any work
     probe_video(args.video)  # missing file / not a video / no frames: one-line error before any work
     resume = args.resume and (out / "motion.npz").is_file()
@@ -182,6 +195,10 @@ def run_static(args) -> int:
             helped = _finish(args, out, motion_path, Path(train.out))
         else:
             helped = json.loads((out / "report.json").read_text())
+        more_before = trained_samples(train.out)
+        train, helped = _train_while_falling(args, out, motion_path, train, helped, budget, helped_cap,
+                                             "the first controller (with its help)", "--helped-max-samples")
+        trained = trained or trained_samples(train.out) != more_before
         report = _body_alone_stage(args, out, helped, resume and not trained, budget)  # a retrained helper: a new rollout
     finally:
         if started_ray:

@@ -35,7 +35,7 @@ def register(sub) -> None:
 
     p = sub.add_parser("pipeline", help=HELP,
                        usage="sfv pipeline VIDEO --out DIR [--person ID | --person-at X,Y@FRAME] [--frames A:B] [--camera static|moving] "
-                             "[--scene BOXES.yaml] [--resume] [--body-alone auto|always|off] [--body-alone-max-samples N] "
+                             "[--scene BOXES.yaml] [--resume] [--body-alone auto|always|off] [--helped-max-samples N] [--body-alone-max-samples N] "
                              "[--checkpoint best|latest] [--finish-only] "
                              "[--config FILE.yaml] [training settings ...]  (sfv pipeline --help lists every setting)",
                        description="Reconstruct a motion from a video, then train a controller for it. The training "
@@ -61,6 +61,10 @@ def register(sub) -> None:
                         "controller's rollout, into DIR/alone (services/pipeline/body_alone.py). auto (default): "
                         "when the helped controller completes the clip but falls without its help; always: also when "
                         "it does not fall; off: never")
+    p.add_argument("--helped-max-samples", type=int, default=None, metavar="N",
+                   help="static camera: where the first controller falls from the first frame with its help after its "
+                        "--samples, it trains on by half as many again, and again, up to N samples (default: twice "
+                        "--samples; equal to --samples: never)")
     p.add_argument("--body-alone-max-samples", type=int, default=None, metavar="N",
                    help="static camera: where the body-alone controller falls after its --samples, the stage trains on "
                         "by half as many again, and again, up to N samples (default: twice --samples; equal to "
@@ -89,7 +93,8 @@ def run(args) -> int:
 
         chosen = [f for f, v in (("--person", args.person), ("--person-at", args.person_at), ("--frames", args.frames),
                                  ("--body-alone", args.body_alone),
-                                 ("--body-alone-max-samples", args.body_alone_max_samples)) if v is not None]
+                                 ("--body-alone-max-samples", args.body_alone_max_samples),
+                                 ("--helped-max-samples", args.helped_max_samples)) if v is not None]
         if chosen:
             from learner.errors import SfvError
 

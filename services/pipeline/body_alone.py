@@ -63,18 +63,20 @@ def stage_decision(report: dict, mode: str) -> tuple[bool, str]:
     return True, f"the body-alone stage: training the body alone on the helped rollout ({cause}) into {ALONE_DIR}/"
 
 
-def max_samples(first: int, given: int | None) -> int:
-    """The stage's sample cap: `--body-alone-max-samples`, or twice its first budget."""
+def max_samples(first: int, given: int | None, flag: str = "--body-alone-max-samples") -> int:
+    """A stage's sample cap: the value of `flag` (`--body-alone-max-samples`, `--helped-max-samples`), or
+    twice its first budget."""
     if given is None:
         return 2 * first
     if given < first:
-        raise SfvError(f"--body-alone-max-samples: {given} is below the stage's first budget (--samples {first})")
+        raise SfvError(f"{flag}: {given} is below the stage's first budget (--samples {first})")
     return given
 
 
 def further_samples(report: dict, trained: int, first: int, cap: int) -> int | None:
-    """The stage's next sample budget after a rollout `report`: while the body alone falls, `first` / 2
-    more, up to `cap`; None: it completes, or the cap is reached."""
+    """A stage's next sample budget after a rollout `report`: while its controller falls (the body alone;
+    the first controller with its help), `first` / 2 more, up to `cap`; None: it completes, or the cap is
+    reached."""
     if not report["fell"] or trained >= cap:
         return None
     return min(cap, trained + max(1, first // 2))

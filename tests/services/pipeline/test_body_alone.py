@@ -141,6 +141,36 @@ def test_the_pipeline_stage_goes_on_from_its_checkpoint_until_the_body_alone_com
     assert report["controller"].startswith("controller: the body alone") and "completes" in report["controller"]
 
 
+def test_a_first_controller_that_falls_with_its_help_trains_on_until_it_completes(tmp_path, monkeypatch, capsys):
+    """The first stage's loop (`_train_while_falling`), training and rollout faked: with its help the
+    controller falls at 2 M samples and completes at 3 M; the loop stops there, under the 4 M cap."""
+    import argparse
+
+    from services.commands import _static_pipeline as stage
+
+    trained = {"samples": 2_000_000}
+    outcomes = {2_000_000: 1.7, 3_000_000: None}
+
+    def fake_train(config, progress):
+        trained["samples"] = config.samples
+        return True
+
+    def fake_finish(args, out, motion, run):
+        fell_at = outcomes[trained["samples"]]
+        return {"fell": fell_at is not None, "fell_at_s": fell_at}
+
+    monkeypatch.setattr(stage, "_train", fake_train)
+    monkeypatch.setattr(stage, "_finish", fake_finish)
+    monkeypatch.setattr("services.training.run_dir.trained_samples", lambda run: trained["samples"])
+    args = argparse.Namespace(quiet=True)
+    config, report = stage._train_while_falling(args, tmp_path, tmp_path / "motion.npz", _Config(str(tmp_path / "train")),
+                                                fake_finish(args, tmp_path, None, None), 2_000_000, 4_000_000,
+                                                "the first controller (with its help)", "--helped-max-samples")
+    said = capsys.readouterr().out
+    assert "the first controller (with its help): its controller falls at 1.70 s; training on to 3000000 samples" in said
+    assert config.samples == 3_000_000 and not report["fell"]
+
+
 @dataclasses.dataclass(frozen=True)
 class _Env:
     residual_force: float = 0.0

@@ -32,6 +32,10 @@ def test_the_scene_needs_the_moving_camera_and_resume_checks_its_video_first(tmp
                  "--body-alone-max-samples", "999"]) == 2
     assert "--body-alone-max-samples: 999 is below the stage's first budget (--samples 1000)" in _one_line_error(capsys)
     assert not (tmp_path / "o").exists()
+    assert main(["pipeline", str(tmp_path / "v.mp4"), "--out", str(tmp_path / "o"), "--samples", "1000",
+                 "--helped-max-samples", "500"]) == 2
+    assert "--helped-max-samples: 500 is below the stage's first budget (--samples 1000)" in _one_line_error(capsys)
+    assert not (tmp_path / "o").exists()
 
 
 def test_a_box_outside_its_domain_stops_the_pipeline_before_the_video_is_read(tmp_path, capsys):
