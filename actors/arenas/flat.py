@@ -28,6 +28,11 @@ class FlatFloor:
     def gradient(self) -> np.ndarray:
         return np.zeros(2)
 
+    @property
+    def tilt_quat(self) -> np.ndarray:
+        """(w, x, y, z) from the world's +z to the ground's normal: none."""
+        return np.array([1.0, 0.0, 0.0, 0.0])
+
     def height_at(self, xy) -> np.ndarray:
         """The ground's height under world points `xy` (..., 2): zero everywhere."""
         return np.zeros(np.shape(xy)[:-1])

@@ -40,7 +40,7 @@ class PushBoxTask:
     def __init__(self, config, num_envs: int, model: mujoco.MjModel | None = None):
         self.config = config
         self.arena = self.arena_for(config)
-        self._tilt = getattr(self.arena.floor, "tilt_quat", np.array([1.0, 0.0, 0.0, 0.0]))
+        self._tilt = self.arena.floor.tilt_quat  # a box set down flush on the ground
         self._lift = self.arena.half_size[2] / np.cos(np.arctan(self.arena.grade))  # the centre above the incline, flush
         self.target = np.zeros((num_envs, 2))
         self.box = np.zeros((num_envs, 3))
