@@ -138,7 +138,12 @@ def final_episode(helped: dict, summary: dict) -> tuple[str, dict]:
 def controller_line(helped: dict, summary: dict) -> str:
     """Which controller the pipeline gives and how it ends without help, in one line."""
     which, episode = final_episode(helped, summary)
-    ending = f"falls at {episode['fell_at_s']:.2f} s" if episode["fell"] else "completes the clip from its first frame"
+    if episode["fell"]:
+        ending = f"falls at {episode['fell_at_s']:.2f} s"
+    elif "toppling" in str(episode.get("outcome", "")):  # `outcome.py`: upright by the fall rule, tipped over at the end
+        ending = "reaches the clip's end, toppling"
+    else:
+        ending = "completes the clip from its first frame"
     return f"controller: {which}: {ending}, NR {episode['normalized_return']:.3f}"
 
 

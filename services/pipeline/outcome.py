@@ -11,6 +11,12 @@ first frame and, if not, the first cause found, checked in this order:
    that window;
 4. drift: the simulated root more than DRIFT_M from the reference's, horizontally, at the fall.
 Otherwise the line says none of these was found.
+
+A rollout the fall rule lets through may still be toppling as the clip ends: its pelvis's up axis
+more than TOPPLE_DEG off the reference's at the last frame (`end_tilt_deg`). The line then says
+"completed the clip's frames, but toppling at its end". Measured (bench/results/pipeline_budget_two02.json):
+balancing cam01's body alone at 150 k samples, nearly horizontal in its strip at 1.67 s, is 79
+degrees off at its last frame; five controllers upright at the end are 4-29 degrees off.
 """
 from __future__ import annotations
 
@@ -24,6 +30,19 @@ WINDOW_S = 0.5
 SEEN_CONFIDENCE = 0.5
 FLOAT_M = 0.05
 DRIFT_M = 0.5
+TOPPLE_DEG = 45.0
+
+
+def _up_axes(quats: np.ndarray) -> np.ndarray:
+    """The world direction of each (w, x, y, z) rotation's local +z axis."""
+    w, x, y, z = (quats[..., k] for k in range(4))
+    return np.stack((2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)), axis=-1)
+
+
+def end_tilt_deg(rollout) -> float:
+    """Degrees between the simulated and the reference pelvis's up axes at the rollout's last frame."""
+    sim, ref = _up_axes(rollout.qpos[-1, 3:7]), _up_axes(rollout.reference_qpos[-1, 3:7])
+    return float(np.degrees(np.arccos(np.clip(sim @ ref, -1.0, 1.0))))
 
 
 def _speed(qpos: np.ndarray, hz: float, steps: int) -> float:
@@ -89,6 +108,10 @@ def outcome_line(rollout, reconstruction, rows: np.ndarray, ref_points) -> str:
     step (`report.video_rows`), `ref_points` the reference's `BodyPoints`."""
     seconds = (rollout.frames - 1) / rollout.control_hz
     if not rollout.fell:
+        tilt = end_tilt_deg(rollout)
+        if tilt > TOPPLE_DEG:
+            return (f"completed the clip's frames ({seconds:.2f} s), but toppling at its end: the pelvis {tilt:.0f} degrees "
+                    "off the reference's at the last frame (the fall rule had not fired yet)")
         return f"completed: upright from the first frame to the clip's end ({seconds:.2f} s)"
     fall = min(rollout.fell_at_step if rollout.fell_at_step is not None else rollout.frames - 1, rollout.frames - 1)
     what = "diverged" if rollout.diverged else "fell"

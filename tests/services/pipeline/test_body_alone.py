@@ -84,6 +84,9 @@ def test_the_report_names_the_controller_the_pipeline_gives(tmp_path):
     assert report["controller"] == ("controller: the body alone (alone/train, no help): completes the clip from its "
                                     "first frame, NR 0.861")
     assert json.loads(path.read_text())["body_alone"]["reprojection_error_px"] == 31.9
+    toppling = dict(alone, outcome="completed the clip's frames (1.67 s), but toppling at its end: the pelvis 79 degrees off")
+    report = record_stage(path, stage_summary(True, "the body-alone stage: training", toppling))
+    assert report["controller"] == "controller: the body alone (alone/train, no help): reaches the clip's end, toppling, NR 0.861"
     # Without the stage the controller is the helped one, judged with its help at zero.
     report = record_stage(path, stage_summary(False, "off"))
     assert report["controller"] == "controller: train, with its help at zero: falls at 1.00 s, NR 0.400"

@@ -42,6 +42,18 @@ def test_completed_says_so():
         "completed: upright from the first frame to the clip's end (1.00 s)"
 
 
+def test_a_rollout_toppling_at_the_clip_s_end_is_not_called_upright():
+    rollout = _rollout(None)
+    rollout.qpos[:, 3] = rollout.reference_qpos[:, 3] = 1.0  # upright, identity rotations
+    half = np.radians(79.0) / 2  # the last frame tipped 79 degrees about x, as balancing cam01's body alone at 150 k
+    rollout.qpos[-1, 3:7] = [np.cos(half), np.sin(half), 0.0, 0.0]
+    line = outcome_line(rollout, _reconstruction(), ROWS, _points())
+    assert line.startswith("completed the clip's frames (1.00 s), but toppling at its end: the pelvis 79 degrees off")
+    half = np.radians(29.0) / 2  # leaning as far as the upright controllers measured do
+    rollout.qpos[-1, 3:7] = [np.cos(half), np.sin(half), 0.0, 0.0]
+    assert outcome_line(rollout, _reconstruction(), ROWS, _points()).startswith("completed: upright")
+
+
 def test_a_launch_at_the_start_is_the_first_cause():
     thrown = np.zeros((FRAMES, 3))
     thrown[:, 1] = np.arange(FRAMES) * 6.7 / HZ  # 6.7 m/s toward the camera, as two-people cam02 was
