@@ -28,22 +28,19 @@ from services.bench.scaling_suite import _train  # noqa: E402
 LOOPS = {"async": 1, "sync": 0}
 
 
-def update_seconds(value_bfloat16: bool, threads: int, obs_dim: int = 197, act_dim: int = 36) -> float:
-    """Seconds of one full PPO update (4,096 samples, 16 minibatches, no early stop) on random data."""
+def update_seconds(value_bfloat16: bool, threads: int, samples: int = 4096) -> float:
+    """Seconds of one full PPO update (no early stop) on the learner suite's random batch."""
     import numpy as np
     import torch
 
+    from actors.character.features import OBS_DIM
     from learner.config import PPOConfig
     from learner.ppo import PPOLearner
+    from services.bench.learner_suite import ACTION_DIM, random_batch
 
     torch.set_num_threads(threads)
-    steps, envs = 128, 32
-    rng = np.random.default_rng(0)
-    obs = rng.normal(size=(steps + 1, envs, obs_dim)).astype(np.float32)
-    batch = dict(obs=obs[:-1], next_obs=obs[1:], actions=(0.1 * rng.normal(size=(steps, envs, act_dim))).astype(np.float32),
-                 logp=np.zeros((steps, envs), np.float32), rewards=rng.uniform(size=(steps, envs)).astype(np.float32),
-                 terminated=np.zeros((steps, envs), bool), truncated=np.zeros((steps, envs), bool))
-    learner = PPOLearner(obs_dim, act_dim, PPOConfig(value_bfloat16=value_bfloat16, target_kl=None))
+    batch = random_batch(np.random.default_rng(0), samples)
+    learner = PPOLearner(OBS_DIM, ACTION_DIM, PPOConfig(value_bfloat16=value_bfloat16, target_kl=None))
     learner.update(batch)  # warm-up
     start = time.perf_counter()
     for _ in range(3):

@@ -24,6 +24,8 @@ import re
 
 import numpy as np
 
+from actors.character.quaternion import quat_rotate
+
 START_S = 0.1
 START_SPEED_M_S = 3.0  # a standing or walking subject's root: 0.1-1.5 m/s
 WINDOW_S = 0.5
@@ -33,15 +35,10 @@ DRIFT_M = 0.5
 TOPPLE_DEG = 45.0
 
 
-def _up_axes(quats: np.ndarray) -> np.ndarray:
-    """The world direction of each (w, x, y, z) rotation's local +z axis."""
-    w, x, y, z = (quats[..., k] for k in range(4))
-    return np.stack((2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)), axis=-1)
-
-
 def end_tilt_deg(rollout) -> float:
     """Degrees between the simulated and the reference pelvis's up axes at the rollout's last frame."""
-    sim, ref = _up_axes(rollout.qpos[-1, 3:7]), _up_axes(rollout.reference_qpos[-1, 3:7])
+    up = np.array([0.0, 0.0, 1.0])
+    sim, ref = quat_rotate(rollout.qpos[-1, 3:7], up), quat_rotate(rollout.reference_qpos[-1, 3:7], up)
     return float(np.degrees(np.arccos(np.clip(sim @ ref, -1.0, 1.0))))
 
 
