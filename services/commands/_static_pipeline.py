@@ -112,16 +112,17 @@ def _reconstruct(args, out: Path) -> Path:
 
 def _train_while_falling(args, out: Path, motion_path: Path, config, report: dict, first: int, cap: int, what: str,
                          flag: str):
-    """While `report` (the controller of `config` against the video) falls from the first frame, train on
+    """While `report` (the controller of `config` against the video) falls from the first frame (or topples at
+    the clip's end), train on
     from the checkpoint by `first` / 2 samples, up to `cap`, and play it again (`further_samples`).
     Returns the last (config, report)."""
     import dataclasses
 
-    from services.pipeline.body_alone import further_samples
+    from services.pipeline.body_alone import ending, further_samples
     from services.training.run_dir import trained_samples
 
     while (more := further_samples(report, trained_samples(config.out) or 0, first, cap)) is not None:
-        print(f"{what}: its controller falls at {report['fell_at_s']:.2f} s; training on to {more} samples ({flag} {cap})")
+        print(f"{what}: its controller {ending(report)}; training on to {more} samples ({flag} {cap})")
         config = dataclasses.replace(config, samples=more)
         _train(config, progress=not args.quiet)
         report = _finish(args, out, motion_path, Path(config.out))

@@ -19,11 +19,11 @@ trains this stage (DIR/alone, twice the minutes):
 DIR/report.json gains `body_alone` (whether the stage ran and why, and its figures) and `controller`
 (one line: which controller the pipeline gives, and how it ends without help).
 
-`--body-alone auto` (default) runs it when the helped controller completes the clip and falls without
-its help; `always` also when the body alone completes already; `off` never.
+`--body-alone auto` (default) runs it when the helped controller completes the clip and falls (or
+topples at the clip's end, `outcome.py`) without its help; `always` also when the body alone completes already; `off` never.
 
 **It trains on while it falls.** The stage trains the pipeline's samples (`--samples`); where its
-controller then falls from the first frame, it goes on from its checkpoint by half as many again and
+controller then falls from the first frame (or topples at the clip's end), it goes on from its checkpoint by half as many again and
 plays it again, up to `--body-alone-max-samples` (default twice `--samples`; `further_samples`). Measured
 on the park walk (bench/results/body_alone_seeds.json): seed 1 of the stage fell at 4.13 s of 4.40 at
 2 M samples (drift, 1.28 m behind the reference) and completed at 3 M (NR .918, joint error 0.087 m,
@@ -41,7 +41,26 @@ ALONE_DIR = "alone"
 MODES = ("auto", "always", "off")
 POSE_FIELDS = ("root_pos", "root_rot", "joint_rot")
 # The body-alone report's figures kept in DIR/report.json's `body_alone`.
-KEPT = ("outcome", "fell", "fell_at_s", "normalized_return")
+KEPT = ("outcome", "fell", "fell_at_s", "toppling", "normalized_return")
+
+
+def completes(episode: dict) -> bool:
+    """A first-frame episode (report.json, or its `without_residual_force`) that reaches the clip's end
+    upright: no fall, and not toppling at the end (`outcome.py`; a report written before `toppling`
+    existed says it in its outcome line)."""
+    return not episode["fell"] and not toppling(episode)
+
+
+def toppling(episode: dict) -> bool:
+    flag = episode.get("toppling")
+    return bool(flag) if flag is not None else "toppling at its end" in str(episode.get("outcome", ""))
+
+
+def ending(episode: dict, upright: str = "completes the clip from its first frame") -> str:
+    """How a first-frame episode ends, in words: "falls at T s", "reaches the clip's end, toppling", or `upright`."""
+    if episode["fell"]:
+        return f"falls at {episode['fell_at_s']:.2f} s"
+    return "reaches the clip's end, toppling" if toppling(episode) else upright
 
 
 def stage_decision(report: dict, mode: str) -> tuple[bool, str]:
@@ -56,10 +75,10 @@ def stage_decision(report: dict, mode: str) -> tuple[bool, str]:
     if report["fell"]:
         return False, (f"the body-alone stage: skipped (the helped controller fell at {report['fell_at_s']:.2f} s: "
                        "no rollout of the whole clip to follow)")
-    if mode == "auto" and not unaided["fell"]:
+    if mode == "auto" and completes(unaided):
         return False, "the body-alone stage: not needed (the controller completes the clip without its help too)"
-    cause = (f"the helped controller falls at {unaided['fell_at_s']:.2f} s without its help" if unaided["fell"]
-             else "--body-alone always")
+    cause = ("--body-alone always" if completes(unaided)
+             else f"the helped controller {ending(unaided)} without its help")
     return True, f"the body-alone stage: training the body alone on the helped rollout ({cause}) into {ALONE_DIR}/"
 
 
@@ -74,10 +93,10 @@ def max_samples(first: int, given: int | None, flag: str = "--body-alone-max-sam
 
 
 def further_samples(report: dict, trained: int, first: int, cap: int) -> int | None:
-    """A stage's next sample budget after a rollout `report`: while its controller falls (the body alone;
-    the first controller with its help), `first` / 2 more, up to `cap`; None: it completes, or the cap is
-    reached."""
-    if not report["fell"] or trained >= cap:
+    """A stage's next sample budget after a rollout `report`: while its controller falls or topples at the
+    clip's end (the body alone; the first controller with its help), `first` / 2 more, up to `cap`; None:
+    it completes, or the cap is reached."""
+    if completes(report) or trained >= cap:
         return None
     return min(cap, trained + max(1, first // 2))
 
@@ -138,13 +157,7 @@ def final_episode(helped: dict, summary: dict) -> tuple[str, dict]:
 def controller_line(helped: dict, summary: dict) -> str:
     """Which controller the pipeline gives and how it ends without help, in one line."""
     which, episode = final_episode(helped, summary)
-    if episode["fell"]:
-        ending = f"falls at {episode['fell_at_s']:.2f} s"
-    elif "toppling" in str(episode.get("outcome", "")):  # `outcome.py`: upright by the fall rule, tipped over at the end
-        ending = "reaches the clip's end, toppling"
-    else:
-        ending = "completes the clip from its first frame"
-    return f"controller: {which}: {ending}, NR {episode['normalized_return']:.3f}"
+    return f"controller: {which}: {ending(episode)}, NR {episode['normalized_return']:.3f}"
 
 
 def record_stage(report_path: Path, summary: dict) -> dict:

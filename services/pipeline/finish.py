@@ -42,20 +42,22 @@ def _bar(progress: bool, total: int, desc: str):
 def _unaided(source, reconstruction):
     """The same controller from the first frame with its residual root wrench at zero: whether
     it completes the clip by the body's own joints (the strict figures), and the rollout."""
+    from services.pipeline.outcome import toppling
     from services.pipeline.rollout import WithoutWrench, first_frame_rollout
     from services.training.evaluation import make_eval_env
 
     alone = first_frame_rollout(WithoutWrench(source.policy), make_eval_env(reconstruction, source.env_config))
     return {"fell": alone.fell, "fell_at_s": None if alone.fell_at_s is None else round(alone.fell_at_s, 3),
-            "normalized_return": round(alone.normalized_return, 4)}, alone
+            "toppling": toppling(alone), "normalized_return": round(alone.normalized_return, 4)}, alone
 
 
 def _help_clause(used: dict | None, alone: dict) -> str:
     """The outcome line's note on the residual root wrench: how much the controller leaned on it,
     and how the body alone does (a user must not read a helped motion as a physical one)."""
+    from services.pipeline.body_alone import ending
+
     share = 0.0 if not used or used["mean"] is None else used["mean"]
-    ending = f"falls at {alone['fell_at_s']:.2f} s" if alone["fell"] else "completes it too"
-    return f"; with a residual root force of {100 * share:.0f} % of body weight on average (without it: {ending})"
+    return f"; with a residual root force of {100 * share:.0f} % of body weight on average (without it: {ending(alone, 'completes it too')})"
 
 
 def finish_static_run(out: Path, video: Path, motion_path: Path, run_dir: Path, checkpoint: str = "best",

@@ -8,6 +8,8 @@ Keys (lengths in metres, speeds in m/s, times in seconds, image errors in pixels
   not simply all it was seen in (a long gap cut or interpolated, a start left out; None when none).
 
 - fell, fell_at_s (None when upright to the end), diverged: the strict fall rule of `sfv eval`;
+- toppling, end_tilt_deg: not fallen, but the pelvis more than 45 degrees off the reference's at the
+  last frame (`outcome.py`; the pipeline's decisions read it as not completed);
   normalized_return: that rule's return over the most the clip could earn.
 - frames, seconds, control_hz: the rollout (one frame per control step, the first frame is the
   reconstruction's first pose).
@@ -29,7 +31,7 @@ Keys (lengths in metres, speeds in m/s, times in seconds, image errors in pixels
 - residual_force_body_weight: mean / max of the residual root force the controller applied
   (`EnvConfig.residual_force`, a help no body has), as a fraction of body weight; null when
   it was trained without one. without_residual_force (only then, `finish.py`): the same
-  controller from the first frame with the wrench at zero: fell, fell_at_s, normalized_return.
+  controller from the first frame with the wrench at zero: fell, fell_at_s, toppling, normalized_return.
 """
 from __future__ import annotations
 
@@ -37,7 +39,7 @@ import numpy as np
 
 from actors.motion.reference_motion import ReferenceMotion
 from services.pipeline import metrics
-from services.pipeline.outcome import outcome_line
+from services.pipeline.outcome import end_tilt_deg, outcome_line, toppling
 from services.pipeline.rollout import BodyPoints, FirstFrameRollout, body_kinematics
 from services.reconstruction.keypoints import JOINT_KEYPOINTS
 
@@ -103,6 +105,8 @@ def build_report(rollout: FirstFrameRollout, humanoid, reconstruction: Reference
         "subject_frames": [str(line) for line in np.atleast_1d(reconstruction.extras.get("subject_lines", []))] or None,
         "fell": rollout.fell,
         "fell_at_s": None if rollout.fell_at_s is None else round(rollout.fell_at_s, 3),
+        "toppling": toppling(rollout),  # upright by the fall rule, tipped over at the clip's end (`outcome.py`)
+        "end_tilt_deg": round(end_tilt_deg(rollout), 1),
         "diverged": rollout.diverged,
         "normalized_return": round(rollout.normalized_return, 4),
         "frames": rollout.frames,

@@ -70,6 +70,24 @@ def test_the_stage_runs_where_the_helped_controller_completes_and_the_body_alone
         stage_decision(helped_report(), "sometimes")
 
 
+def test_a_controller_toppling_at_the_clip_s_end_is_not_taken_as_completing():
+    """Upright by the fall rule but tipped over at the last frame (balancing cam01's body alone at 150 k:
+    79 degrees): the stage runs where the helped controller topples without its help, and a stage that
+    topples trains on."""
+    from services.pipeline.body_alone import completes, further_samples, stage_decision
+
+    report = helped_report()
+    report["without_residual_force"]["toppling"] = True
+    needed, line = stage_decision(report, "auto")
+    assert needed and "reaches the clip's end, toppling without its help" in line
+    topples = {"fell": False, "fell_at_s": None, "toppling": True}
+    assert not completes(topples) and completes(dict(topples, toppling=False))
+    assert further_samples(topples, 2_000_000, 2_000_000, 4_000_000) == 3_000_000
+    # A report written before the flag existed says it in its outcome line only.
+    older = {"fell": False, "outcome": "completed the clip's frames (1.67 s), but toppling at its end: the pelvis 79 degrees off"}
+    assert not completes(older) and completes(dict(older, outcome="completed: upright from the first frame"))
+
+
 def test_the_report_names_the_controller_the_pipeline_gives(tmp_path):
     import json
 

@@ -92,7 +92,7 @@ def test_finishing_writes_the_files_and_a_report_that_adds_up(finished, trained)
     assert names <= {p.name for p in root.iterdir()}
     assert not [p for p in root.iterdir() if p.name.startswith(".")]  # no temp file left behind
     assert len(lines) == 9  # one result line per file, the outcome, the controller given, then the summary as JSON
-    assert "without it: " in report["outcome"] and set(report["without_residual_force"]) == {"fell", "fell_at_s", "normalized_return"}
+    assert "without it: " in report["outcome"] and set(report["without_residual_force"]) == {"fell", "fell_at_s", "toppling", "normalized_return"}
     assert lines[-3] == report["outcome"] and report["outcome"].startswith(("completed: ", "fell at "))
     # No body-alone stage was trained: the controller is the helped one, judged with its help at zero.
     assert lines[-2] == report["controller"] and report["controller"].startswith("controller: train, with its help at zero: ")

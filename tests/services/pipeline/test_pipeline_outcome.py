@@ -2,7 +2,7 @@
 import numpy as np
 
 from actors.motion.reference_motion import ReferenceMotion
-from services.pipeline.outcome import outcome_line
+from services.pipeline.outcome import outcome_line, toppling
 from services.pipeline.rollout import BodyPoints, FirstFrameRollout
 
 HZ = 30.0
@@ -49,9 +49,11 @@ def test_a_rollout_toppling_at_the_clip_s_end_is_not_called_upright():
     rollout.qpos[-1, 3:7] = [np.cos(half), np.sin(half), 0.0, 0.0]
     line = outcome_line(rollout, _reconstruction(), ROWS, _points())
     assert line.startswith("completed the clip's frames (1.00 s), but toppling at its end: the pelvis 79 degrees off")
+    assert toppling(rollout)
     half = np.radians(29.0) / 2  # leaning as far as the upright controllers measured do
     rollout.qpos[-1, 3:7] = [np.cos(half), np.sin(half), 0.0, 0.0]
     assert outcome_line(rollout, _reconstruction(), ROWS, _points()).startswith("completed: upright")
+    assert not toppling(rollout)
 
 
 def test_a_launch_at_the_start_is_the_first_cause():
