@@ -68,6 +68,15 @@ def test_print_config_round_trips_through_a_config_file_and_flags_win_over_it(tm
     assert not (tmp_path / "a").exists()  # printing the config writes nothing
 
 
+def test_a_runs_config_json_given_back_as_a_config_file_reads_its_exponent_floats(tmp_path):
+    """A run's config.json writes 5e-05 (json.dumps); YAML 1.1 would read it as a string."""
+    written = tmp_path / "config.json"
+    written.write_text(json.dumps({"ppo": {"policy_lr": 5e-05, "value_lr": 1e-3}, "samples": 2000000}))
+    assert '"policy_lr": 5e-05' in written.read_text()
+    config = train.build_config(parse("--config", str(written), "--out", str(tmp_path / "run")))
+    assert (config.ppo.policy_lr, config.ppo.value_lr, config.samples) == (5e-05, 1e-3, 2000000)
+
+
 @pytest.mark.parametrize("text, fault", [
     ("workers: 2\nenv:\n  horizn_s: 3\n", "unknown setting 'env.horizn_s'"),
     ("workers: two\n", "workers must be int"),
