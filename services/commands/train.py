@@ -65,7 +65,10 @@ def build_config(args):
     from services.training.run_dir import CONFIG_FILE
 
     _, given, flags = requested_settings(args)
-    out = args.out or given.pop("out", None)
+    given_out = given.pop("out", None)
+    if args.out and given_out is not None and str(given_out) != str(args.out) and str(flags.get("job_id", "")).startswith(f"{args.config}:"):
+        given.pop("job_id")  # another run's config.json as --config: this run derives its own ASI job id
+    out = args.out or given_out
     if out is None and not args.print_config:
         raise SfvError("sfv train: --out is required (the run directory)")
     saved = Path(out) / CONFIG_FILE if out else None

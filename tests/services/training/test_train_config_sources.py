@@ -71,10 +71,14 @@ def test_print_config_round_trips_through_a_config_file_and_flags_win_over_it(tm
 def test_a_runs_config_json_given_back_as_a_config_file_reads_its_exponent_floats(tmp_path):
     """A run's config.json writes 5e-05 (json.dumps); YAML 1.1 would read it as a string."""
     written = tmp_path / "config.json"
-    written.write_text(json.dumps({"ppo": {"policy_lr": 5e-05, "value_lr": 1e-3}, "samples": 2000000}))
+    written.write_text(json.dumps({"ppo": {"policy_lr": 5e-05, "value_lr": 1e-3}, "samples": 2000000,
+                                   "out": str(tmp_path / "other"), "job_id": "train-other"}))
     assert '"policy_lr": 5e-05' in written.read_text()
     config = train.build_config(parse("--config", str(written), "--out", str(tmp_path / "run")))
     assert (config.ppo.policy_lr, config.ppo.value_lr, config.samples) == (5e-05, 1e-3, 2000000)
+    # The other run's ASI job id is not taken over; given with its own --out it is kept.
+    assert config.job_id is None
+    assert train.build_config(parse("--config", str(written))).job_id == "train-other"
 
 
 @pytest.mark.parametrize("text, fault", [
