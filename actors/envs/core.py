@@ -82,8 +82,7 @@ class ImitationCore:
         self.joint_action_dim = self.actions.action_dim
         self.action_dim = self.joint_action_dim + (WRENCH_DIM if self.residual is not None else 0)
         self.mode = mode_class(config.mode)(config, track, humanoid, num_envs)
-        self.root_sync = RootSync(track, num_envs, config.sync_root_per_cycle and self.mode.tracks_root,
-                                  config.root_leash_m if self.mode.tracks_root else 0.0)
+        self.root_sync = RootSync(track, num_envs, config.sync_root_per_cycle and self.mode.tracks_root)
         self.reference_obs = ReferenceObservation(track, num_envs, config.reference_obs_steps if self.mode.tracks_root else ())
         self.reference_pose_obs = ReferencePoseObservation(track, num_envs, config.reference_pose_obs_steps)
         self.target_lead = first.target_lead_steps  # residual actions add to the reference this many steps later

@@ -54,9 +54,7 @@ _TRACK_WHAT = ("row r is the reference r control steps after its first frame (an
                "targets: the PD targets of that pose, per actuator")
 _SYNC_WHAT = ("offset (x, y) added to the reference roots observed: at the first frame the character's root xy minus "
               "reference_track.qpos[0][0:2] (zero from the first frame); with root_sync, reset the same way at every row r where "
-              "reference_track.phase[r] < phase[r - 1] (a new cycle), held in between; with root_leash_m > 0, after that on every step: "
-              "where the character's root xy is farther than root_leash_m from the reference root xy plus offset, offset moves "
-              "toward it by the excess")
+              "reference_track.phase[r] < phase[r - 1] (a new cycle), held in between")
 
 
 def _numbers(values) -> list:
@@ -164,7 +162,6 @@ def runtime_metadata(env) -> dict[str, str]:
         "observation_links": _observation_links(env),
         "observation_reference": {"root_steps": [int(k) for k in env.reference_obs.steps],
                                   "pose_steps": [int(k) for k in env.reference_pose_obs.steps],
-                                  "root_sync": bool(env.root_sync.per_cycle),
-                                  "root_leash_m": env.root_sync.leash_m, "what": _SYNC_WHAT},
+                                  "root_sync": bool(env.root_sync.enabled), "what": _SYNC_WHAT},
     }
     return {key: json.dumps(value) for key, value in values.items()}

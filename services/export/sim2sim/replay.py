@@ -39,7 +39,6 @@ class Replay:
         self.initial_qpos = np.asarray(meta["initial_qpos"], dtype=np.float64)
         self.initial_qvel = np.asarray(meta["initial_qvel"], dtype=np.float64)
         self.root_sync = bool(meta["observation_reference"].get("root_sync", False))
-        self.root_leash_m = float(meta["observation_reference"].get("root_leash_m", 0.0))
         self.control_hz = float(meta["control_hz"])
         self.physics_hz = 1.0 / float(model.opt.timestep)
         self.row = 0
@@ -83,14 +82,8 @@ class Replay:
         update_kinematics(self.model, self.data)
         phase = self.observer.phase
         row = min(self.row, self.observer.last_row)
-        root = self.data.xpos[self.observer.root, :2]
         if self.root_sync and row > 0 and phase[row] < phase[row - 1]:  # a new cycle
-            self.offset = root - self.observer.qpos[row, :2]
-        if self.root_leash_m > 0:  # the reference waits for a character that lags farther than the leash
-            gap = root - self.observer.qpos[row, :2] - self.offset
-            distance = float(np.hypot(*gap))
-            if distance > self.root_leash_m:
-                self.offset = self.offset + gap * (1.0 - self.root_leash_m / distance)
+            self.offset = self.data.xpos[self.observer.root, :2] - self.observer.qpos[row, :2]
         return self.observation()
 
 

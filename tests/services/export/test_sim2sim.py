@@ -102,30 +102,6 @@ def test_the_reference_poses_ahead_are_the_envs(walk_clip, tmp_path):
         obs, *_ = env.step(np.full(env.action_space.shape, 0.3))
 
 
-def test_the_root_leash_moves_the_replays_reference_as_the_envs(walk_clip, tmp_path):
-    """A character set 1.2 m behind its reference: the replay's reference waits at the env's leash (0.3 m)."""
-    from actors.character.features import update_kinematics
-    from actors.envs.imitation_env import ImitationEnv
-    from services.export.runtime_metadata import runtime_metadata
-
-    env = ImitationEnv(walk_clip, EnvConfig(root_leash_m=0.3, horizon_s=1.0))
-    meta = {key: json.loads(value) for key, value in runtime_metadata(env).items()}
-    assert meta["observation_reference"]["root_leash_m"] == 0.3
-    xml = _robot_xml("humanoid3d", tmp_path)
-    replay = Replay(SimpleNamespace(meta=meta), build_model(meta, xml, env.config.physics.physics_hz), xml)
-    env.reset(options={"init": "fsi"})
-    replay.reset()
-    for lag in (0.0, 1.2, 1.2):
-        env.data.qpos[:] = env.track.qpos[env.row]
-        env.data.qpos[0] -= lag
-        update_kinematics(env.model, env.data)
-        obs, *_ = env.step(np.zeros(env.action_space.shape))
-        replay.data.qpos[:], replay.data.qvel[:] = env.data.qpos, env.data.qvel
-        np.testing.assert_array_less(np.abs(replay.advance() - obs), OBS_TOLERANCE)
-        np.testing.assert_allclose(replay.offset, env.root_sync.offset[0], atol=1e-6)  # the metadata keeps 7 digits
-    assert env.root_sync.offset[0, 0] < -0.8  # the reference moved back by most of the lag
-
-
 def test_the_rollout_at_the_trained_rate_is_the_envs(body):
     env, replay = body.env, _replay(body)
     env_obs, _ = env.reset(options={"init": "fsi"})
