@@ -144,7 +144,7 @@ def _body_alone_stage(args, out: Path, helped: dict, resume: bool, first: int) -
         if not (resume and motion_path.is_file()):
             motion_path = helped_reference(out, alone)
         config = _stage_config(args, motion_path, alone / "train", resume, residual_force=0.0)  # the body alone
-        cap = max_samples(first, args.body_alone_max_samples)
+        cap = max_samples(first, args.body_alone_max_samples, clip_seconds=helped.get("clip_seconds", 0.0))
         trained = _train(config, progress=not args.quiet)
         if trained or not (alone / "report.json").is_file():
             report = _finish(args, alone, motion_path, alone / "train")
@@ -197,6 +197,7 @@ def run_static(args) -> int:
         else:
             helped = json.loads((out / "report.json").read_text())
         more_before = trained_samples(train.out)
+        helped_cap = max_samples(budget, args.helped_max_samples, "--helped-max-samples", helped.get("clip_seconds", 0.0))
         train, helped = _train_while_falling(args, out, motion_path, train, helped, budget, helped_cap,
                                              "the first controller (with its help)", "--helped-max-samples")
         trained = trained or trained_samples(train.out) != more_before

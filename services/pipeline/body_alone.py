@@ -41,6 +41,8 @@ ALONE_DIR = "alone"
 MODES = ("auto", "always", "off")
 POSE_FIELDS = ("root_pos", "root_rot", "joint_rot")
 # The body-alone report's figures kept in DIR/report.json's `body_alone`.
+# A longer clip takes more samples to be followed whole: the default cap grows with its length.
+SAMPLES_PER_CLIP_SECOND = 800_000
 KEPT = ("outcome", "fell", "fell_at_s", "toppling", "normalized_return")
 
 
@@ -82,11 +84,11 @@ def stage_decision(report: dict, mode: str) -> tuple[bool, str]:
     return True, f"the body-alone stage: training the body alone on the helped rollout ({cause}) into {ALONE_DIR}/"
 
 
-def max_samples(first: int, given: int | None, flag: str = "--body-alone-max-samples") -> int:
+def max_samples(first: int, given: int | None, flag: str = "--body-alone-max-samples", clip_seconds: float = 0.0) -> int:
     """A stage's sample cap: the value of `flag` (`--body-alone-max-samples`, `--helped-max-samples`), or
-    twice its first budget."""
+    twice its first budget, or SAMPLES_PER_CLIP_SECOND per second of a longer clip."""
     if given is None:
-        return 2 * first
+        return max(2 * first, int(round(SAMPLES_PER_CLIP_SECOND * clip_seconds, -5)))
     if given < first:
         raise SfvError(f"{flag}: {given} is below the stage's first budget (--samples {first})")
     return given

@@ -115,6 +115,10 @@ def test_a_stage_that_falls_trains_on_by_half_its_budget_up_to_the_cap():
 
     fell, completed = {"fell": True}, {"fell": False}
     assert max_samples(2_000_000, None) == 4_000_000 and max_samples(2_000_000, 2_000_000) == 2_000_000
+    # A longer clip's default cap grows with it (a 1.67-s clip keeps twice the budget); a cap given stays.
+    assert max_samples(2_000_000, None, clip_seconds=1.67) == 4_000_000
+    assert max_samples(2_000_000, None, clip_seconds=9.63) > 6_000_000
+    assert max_samples(2_000_000, 2_000_000, clip_seconds=9.63) == 2_000_000
     with pytest.raises(SfvError, match="--body-alone-max-samples: 1000 is below"):
         max_samples(2_000_000, 1000)
     assert further_samples(fell, 2_000_000, 2_000_000, 4_000_000) == 3_000_000
