@@ -62,13 +62,13 @@ def register(sub) -> None:
                         "when the helped controller completes the clip but falls without its help; always: also when "
                         "it does not fall; off: never")
     p.add_argument("--helped-max-samples", type=int, default=None, metavar="N",
-                   help="static camera: where the first controller falls from the first frame with its help after its "
-                        "--samples, it trains on by half as many again, and again, up to N samples (default: twice "
-                        "--samples; equal to --samples: never)")
+                   help="static camera: where the first controller falls from the first frame with its help (or topples "
+                        "at the clip's end) after its --samples, it trains on by half as many again, and again, up to N "
+                        "samples (default: the larger of twice --samples and 800 k per second of clip; equal to --samples: never)")
     p.add_argument("--body-alone-max-samples", type=int, default=None, metavar="N",
-                   help="static camera: where the body-alone controller falls after its --samples, the stage trains on "
-                        "by half as many again, and again, up to N samples (default: twice --samples; equal to "
-                        "--samples: never)")
+                   help="static camera: where the body-alone controller falls (or topples at the clip's end) after its "
+                        "--samples, the stage trains on by half as many again, and again, up to N samples (default: the "
+                        "larger of twice --samples and 800 k per second of clip; equal to --samples: never)")
     p.add_argument("--checkpoint", choices=("best", "latest"), default="best",
                    help="the checkpoint played against the video: best (best.pt, the best periodic evaluation; the "
                         "newest when the run has none) or latest")

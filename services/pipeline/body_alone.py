@@ -24,7 +24,8 @@ topples at the clip's end, `outcome.py`) without its help; `always` also when th
 
 **It trains on while it falls.** The stage trains the pipeline's samples (`--samples`); where its
 controller then falls from the first frame (or topples at the clip's end), it goes on from its checkpoint by half as many again and
-plays it again, up to `--body-alone-max-samples` (default twice `--samples`; `further_samples`). Measured
+plays it again, up to `--body-alone-max-samples` (default the larger of twice `--samples` and
+SAMPLES_PER_CLIP_SECOND per second of clip; `further_samples`). Measured
 on the park walk (bench/results/body_alone_seeds.json): seed 1 of the stage fell at 4.13 s of 4.40 at
 2 M samples (drift, 1.28 m behind the reference) and completed at 3 M (NR .918, joint error 0.087 m,
 reprojection 23.4 px; seed 0 at 2 M: .880, 0.24 m, 29.5 px). A stage that completes at once costs no more.
@@ -41,7 +42,10 @@ ALONE_DIR = "alone"
 MODES = ("auto", "always", "off")
 POSE_FIELDS = ("root_pos", "root_rot", "joint_rot")
 # The body-alone report's figures kept in DIR/report.json's `body_alone`.
-# A longer clip takes more samples to be followed whole: the default cap grows with its length.
+# A longer clip takes more samples to be followed whole, so the default cap grows with its length.
+# Measured (bench/results/long_clip_budget.json): the 9.63-s walk that turns completes with the body
+# alone at 6 M (0.62 M per second; fell at 3.90-5.83 s at 2-5 M), the park walk's second seed at
+# 3 M for 4.40 s (0.68 M); 800 k leaves a quarter more. Every clip of the development set keeps 4 M.
 SAMPLES_PER_CLIP_SECOND = 800_000
 KEPT = ("outcome", "fell", "fell_at_s", "toppling", "normalized_return")
 
