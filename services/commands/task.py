@@ -20,12 +20,12 @@ import argparse
 import json
 import logging
 
-TASK_NAMES = {"go-to": "go_to", "push-box": "push_box"}
+TASK_NAMES = {"go-to": "go_to", "push-box": "push_box", "push-box-phased": "push_box_phased"}
 SAFE_ON_RESUME = frozenset({"samples", "workers", "envs_per_worker", "runner", "torch_threads", "ray_address", "device",
                             "worker_timeout_s", "checkpoint_every", "keep_checkpoints", "plot_every", "plot_min_interval_s"})
 
 
-HELP = "train, evaluate or render a task policy on a motor module (go-to, push-box)"  # the one line `sfv --help` lists (without importing the command)
+HELP = "train, evaluate or render a task policy on a motor module (go-to, push-box, push-box-phased)"  # the one line `sfv --help` lists (without importing the command)
 
 
 def task_schema():

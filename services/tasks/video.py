@@ -40,6 +40,15 @@ def _add_target(renderer: OffscreenRenderer, env: VectorTaskEnv) -> None:
         renderer.add_arrow(start, end, 0.04, HEADING_RGBA)
 
 
+def _phase(env) -> str:
+    """The phased push-box's phase and box, for the caption ("" for the other tasks)."""
+    phase = getattr(env.task, "phase", None)
+    if phase is None:
+        return ""
+    size = " x ".join(f"{2 * v:.2f}" for v in env.task.half_size[0])
+    return f"  {'push' if phase[0] else 'go to the box'}  box {size} m, {env.task.mass[0]:.1f} kg"
+
+
 def render_task(env_config, weights: dict | None, out: str | Path, episodes: int = 2, seed: int = 0, label: str = "",
                 width: int = 640, height: int = 360, policy=None) -> dict:
     """`episodes` deterministic episodes of `weights` (or of `policy`, anything with `mean(obs)`:
@@ -52,7 +61,7 @@ def render_task(env_config, weights: dict | None, out: str | Path, episodes: int
     frame = np.zeros((height, width, 3), np.uint8)
     hz = env_config.control_hz
     summary = []
-    with OffscreenRenderer(env.model, width, height) as renderer, AtomicVideoWriter(out, fps=hz) as video, \
+    with OffscreenRenderer(env.sim.models[0], width, height) as renderer, AtomicVideoWriter(out, fps=hz) as video, \
             threadpool_limits(1, user_api="blas"):
         for episode in range(episodes):
             env.rng = np.random.default_rng(seed + episode)
@@ -64,7 +73,7 @@ def render_task(env_config, weights: dict | None, out: str | Path, episodes: int
                 _add_target(renderer, env)
                 renderer.render(frame)
                 lines = [(label or f"{env_config.task} ({env_config.action})", WHITE),
-                         (f"episode {episode + 1}/{episodes}  t {step / hz:.1f} s  targets {reached}", WHITE)]
+                         (f"episode {episode + 1}/{episodes}  t {step / hz:.1f} s  targets {reached}{_phase(env)}", WHITE)]
                 if fell:
                     lines.append(("fell", PUSH_RED))
                 video.append(draw_lines(frame, lines))

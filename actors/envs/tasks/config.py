@@ -9,13 +9,14 @@ from dataclasses import dataclass, field
 
 from actors.character.humanoid import PhysicsConfig, control_substeps
 
-TASKS = ("go_to", "push_box")
+TASKS = ("go_to", "push_box", "push_box_phased")
 ACTION_SPACES = ("latent", "joint")
+RANGES = ("target_distance", "speed_range", "box_distance", "box_target_distance", "box_size_scale", "box_mass")
 
 
 @dataclass(frozen=True)
 class TaskEnvConfig:
-    task: str = field(default="go_to", metadata={"choices": TASKS, "help": "go_to (a target at a requested speed and heading) or push_box"})
+    task: str = field(default="go_to", metadata={"choices": TASKS, "help": "go_to (a target at a requested speed and heading), push_box, or push_box_phased (004's phases: go to the box, then push it; a sparse reward each)"})
     action: str = field(default="latent", metadata={"choices": ACTION_SPACES, "help": "latent: the policy outputs z for the frozen decoder; joint: absolute exp-map PD targets, from scratch"})
     module: str | None = field(default="pretrained", metadata={"help": "motor module directory (config.json, decoder.npz, decoder.onnx) for --action latent; "
                                "`pretrained`: the module that ships in learner/pretrained/motor_module (its PROVENANCE.md says how it was made)"})
@@ -41,9 +42,14 @@ class TaskEnvConfig:
     # push-box
     box_distance: tuple[float, float] = field(default=(1.0, 2.0), metadata={"help": "push-box: box distance range from the character (m), ahead within +-45 deg"})
     box_target_distance: tuple[float, float] = field(default=(1.0, 2.0), metadata={"help": "push-box: target distance from the box (m), within +-45 deg of the walker-to-box direction"})
+    # the phased push-box (actors/envs/tasks/phased_push_box.py)
+    push_start_share: float = field(default=0.5, metadata={"help": "phased push-box: share of episodes that start in the push phase, the box just ahead (004 Fig. 8B: starts in every phase)"})
+    box_size_scale: tuple[float, float] = field(default=(0.8, 1.2), metadata={"help": "phased push-box: each episode's box half sizes are the arena's (0.25, 0.25, 0.4 m) scaled by U(low, high) per axis"})
+    box_mass: tuple[float, float] = field(default=(2.0, 10.0), metadata={"help": "phased push-box: each episode's box mass range (kg)"})
+    box_shaping: float = field(default=1.0, metadata={"help": "phased push-box: reward per metre of progress toward the phase's goal (0: the sparse rewards alone)"})
 
     def __post_init__(self):
-        for name in ("target_distance", "speed_range", "box_distance", "box_target_distance"):
+        for name in RANGES:
             object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
 
     @property
@@ -77,7 +83,11 @@ class TaskEnvConfig:
                 out.append(f"--{name.replace('_', '-')} must be positive, got {getattr(self, name)}")
         if not any(name.strip() for name in self.start_motion.split(",")):
             out.append("--start-motion must name at least one clip")
-        for name in ("target_distance", "speed_range", "box_distance", "box_target_distance"):
+        if not 0.0 <= self.push_start_share <= 1.0:
+            out.append(f"--push-start-share must lie in [0, 1], got {self.push_start_share}")
+        if not self.box_shaping >= 0.0:
+            out.append(f"--box-shaping must be >= 0, got {self.box_shaping}")
+        for name in RANGES:
             lo, hi = getattr(self, name)
             if not 0 < lo <= hi:
                 out.append(f"--{name.replace('_', '-')} must be 0 < low <= high, got {lo}, {hi}")

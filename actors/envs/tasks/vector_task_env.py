@@ -19,6 +19,7 @@ splits its figures by.
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 
 import mujoco
@@ -32,11 +33,12 @@ from actors.envs.tasks.config import TaskEnvConfig
 from actors.envs.tasks.floor_fall import FloorFall
 from actors.envs.tasks.go_to import GoToTask
 from actors.envs.tasks.geometry import to_heading_frame
+from actors.envs.tasks.phased_push_box import PhasedPushBoxTask
 from actors.envs.tasks.push_box import PushBoxTask
 from actors.envs.tasks.slope_starts import set_down, turn_start
 from actors.envs.tasks.starts import ClipStarts
 
-TASK_CLASSES = {"go_to": GoToTask, "push_box": PushBoxTask}
+TASK_CLASSES = {"go_to": GoToTask, "push_box": PushBoxTask, "push_box_phased": PhasedPushBoxTask}
 
 
 @dataclass
@@ -73,8 +75,12 @@ class VectorTaskEnv:
         self.humanoid = HUMANOID3D.build(config.physics, self.arena)
         self.model = self.humanoid.model
         self.datas = [mujoco.MjData(self.model) for _ in range(m)]
-        self.sim = MujocoSimulator([self.model] * m, self.datas, config.substeps)
+        # A task that changes its props per episode (the phased push-box's box size and mass) gets a model per env.
+        models = [copy.deepcopy(self.model) for _ in range(m)] if getattr(task_class, "per_env_models", False) else [self.model] * m
+        self.sim = MujocoSimulator(models, self.datas, config.substeps)
         self.task = task_class(config, m, self.model)
+        if hasattr(self.task, "bind_models"):
+            self.task.bind_models(models)
         self.action_space = make_action_space(config)
         self.starts = ClipStarts(config.start_motion, config.physics, 1.0 / config.control_hz)
         self.features = FeatureExtractor(self.humanoid, m)
@@ -139,11 +145,11 @@ class VectorTaskEnv:
         data.qpos[:character.nq], data.qvel[:character.nv] = qpos, qvel
         if self.sloped:
             turn_start(data.qpos, data.qvel, self.rng.uniform(-np.pi, np.pi))
-            set_down(self.arena, self.model, data, self._walker_geoms)
+            set_down(self.arena, self.sim.models[i], data, self._walker_geoms)
         self.sim.forward(i)
         yaw = float(np.arctan2(data.xmat[1, 3], data.xmat[1, 0]))
         self.task.reset(i, data.qpos[:2].copy(), yaw, self.rng, data)
-        mujoco.mj_forward(self.model, data)
+        mujoco.mj_forward(self.sim.models[i], data)
         data.ctrl[:] = data.actuator_length  # hold the start pose: no jerk in the first substeps
         self.features.capture(i, data)
         self.task.capture(i, data)
