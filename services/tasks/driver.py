@@ -30,7 +30,17 @@ def task_figures(batch: dict) -> dict:
         "success_rate": float(np.mean(successes)) if len(successes) else None,
         "time_to_target_s": float(np.mean(reached)) if len(reached) else None,
         "targets_per_episode": float(np.mean(batch["episode_targets_reached"])) if len(successes) else None,
+        **_phase_figures(batch),
     }
+
+
+def _phase_figures(batch: dict) -> dict:
+    """The phased push-box's training figure: the share of the episodes started in its first phase
+    that reached the box (other tasks log their start phase as -1 and get none)."""
+    goto = np.asarray(batch.get("episode_start_phase", [])) == 0
+    if not goto.any():
+        return {}
+    return {"box_reached_rate": float(np.mean(np.asarray(batch["episode_first_phase_done"])[goto]))}
 
 
 class TaskTrainer(Trainer):

@@ -88,7 +88,23 @@ def evaluate_task(env_config, weights: dict | None, episodes: int = 32, seed: in
     }
     if env_config.slope > 0:
         record["by_direction"] = split_by_direction(per_episode, env_config.slope)
+    if env_config.task == "push_box_phased":
+        record["by_start_phase"] = split_by_start_phase(per_episode)
     return record
+
+
+def split_by_start_phase(per_episode: dict[str, np.ndarray]) -> dict[str, dict]:
+    """The phased push-box's episodes by the phase they started in (004 Fig. 8B): episodes, the box
+    reached (the first phase done, for those that started before it), success (a box delivered), falls."""
+    phase = per_episode["start_phase"].astype(int)
+    out = {}
+    for name, mask in (("go_to_the_box", phase == 0), ("push", phase == 1)):
+        n = int(mask.sum())
+        out[name] = {"episodes": n,
+                     "box_reached_rate": float(per_episode["first_phase_done"][mask].astype(bool).mean()) if n and name == "go_to_the_box" else None,
+                     "success_rate": float(per_episode["successes"][mask].astype(bool).mean()) if n else None,
+                     "fall_rate": float(per_episode["fell"][mask].astype(bool).mean()) if n else None}
+    return out
 
 
 def split_by_direction(per_episode: dict[str, np.ndarray], slope: float) -> dict[str, dict]:

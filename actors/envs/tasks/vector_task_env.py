@@ -54,6 +54,8 @@ class TaskEpisodeLog:
     first_success_s: list = field(default_factory=list)  # seconds to the first target (nan: none)
     targets_reached: list = field(default_factory=list)
     grade_along: list = field(default_factory=list)  # the ground's rise over run along the first task direction (0 on the flat)
+    start_phase: list = field(default_factory=list)  # a phased task's phase at the start (-1 for the others)
+    first_phase_done: list = field(default_factory=list)  # a phased task's first phase completed (the box reached; False for the others)
 
     def drain(self) -> dict[str, np.ndarray]:
         out = {k: np.asarray(v, np.float32) for k, v in self.__dict__.items()}
@@ -108,6 +110,9 @@ class VectorTaskEnv:
         self._hits = np.zeros(m, np.int64)
         self._first_hit = np.full(m, -1, np.int64)
         self._grade_along = np.zeros(m)
+        self._phased = hasattr(self.task, "phase_reached")  # the phased push-box: its start phase and first phase logged
+        self._start_phase = np.zeros(m, np.int64)
+        self._first_phase_done = np.zeros(m, bool)
         self._max_steps = config.horizon_steps
         self._cap: int | None = None
         self._limit = np.full(m, self._max_steps, np.int64)  # each env's episode length
@@ -154,6 +159,8 @@ class VectorTaskEnv:
         self.features.capture(i, data)
         self.task.capture(i, data)
         self._grade_along[i] = float(self.arena.gradient @ self.task.first_direction(i))
+        self._start_phase[i] = self.task.phase[i] if self._phased else -1
+        self._first_phase_done[i] = False
         self._ret[i] = self._disc[i] = 0.0
         self._discount[i] = 1.0
         self._len[i] = self._hits[i] = 0
@@ -217,6 +224,8 @@ class VectorTaskEnv:
         self._hits += reached
         first = reached & (self._first_hit < 0)
         self._first_hit[first] = self._len[first]
+        if self._phased:
+            self._first_phase_done |= self.task.phase_reached
 
     def _record(self, i: int) -> None:
         log = self.episodes
@@ -229,3 +238,5 @@ class VectorTaskEnv:
         log.first_success_s.append(self._first_hit[i] / self.config.control_hz if self._first_hit[i] >= 0 else np.nan)
         log.targets_reached.append(self._hits[i])
         log.grade_along.append(self._grade_along[i])
+        log.start_phase.append(self._start_phase[i])
+        log.first_phase_done.append(bool(self._first_phase_done[i]))

@@ -100,3 +100,27 @@ def test_bad_phased_settings_are_named():
     assert any("--push-start-share" in p for p in problems)
     assert any("--box-mass" in p for p in problems)
     assert any("--box-shaping" in p for p in problems)
+
+
+def test_episodes_log_their_start_phase_and_whether_the_box_was_reached():
+    """An env started in the go-to phase with its box put under the walker logs the box reached; the
+    eval's split and the training figure read those logs (other tasks log -1 and get no figure)."""
+    from services.tasks.driver import task_figures
+    from services.tasks.evaluation import split_by_start_phase
+
+    env = make_env(num_envs=2, push_start_share=0.0, horizon_s=0.2)
+    env.reset()
+    q = env.task.qpos_adr
+    env.datas[0].qpos[q:q + 2] = env.features.pos[0, 0, :2] + [0.5, 0.0]  # env 0's box within reach
+    env.task.box[0, :2] = env.datas[0].qpos[q:q + 2]
+    for _ in range(6):
+        env.step(hold_actions(env))
+    log = env.episodes.drain()
+    assert log["start_phase"][:2].tolist() == [0, 0]
+    assert log["first_phase_done"][:2].tolist() == [True, False]
+    split = split_by_start_phase(log)
+    assert split["go_to_the_box"]["episodes"] == 2 and split["go_to_the_box"]["box_reached_rate"] == 0.5
+    batch = {f"episode_{k}": v for k, v in log.items()}
+    assert task_figures(batch)["box_reached_rate"] == 0.5
+    other = {**batch, "episode_start_phase": np.full(2, -1.0)}
+    assert "box_reached_rate" not in task_figures(other)
