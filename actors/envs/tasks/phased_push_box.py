@@ -63,7 +63,10 @@ class PhasedPushBoxTask(PushBoxTask):
             self.geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, BOX_GEOM)
 
     def bind_models(self, models) -> None:
+        import mujoco
+
         self.models = list(models)
+        self._scratch = mujoco.MjData(self.models[0])  # mj_setConst's workspace (every env's model has the same layout)
 
     def reset(self, i: int, root_xy: np.ndarray, yaw: float, rng: np.random.Generator, data=None) -> None:
         c = self.config
@@ -97,6 +100,12 @@ class PhasedPushBoxTask(PushBoxTask):
         model.body_mass[self.body] = mass
         a, b, h = 2.0 * half
         model.body_inertia[self.body] = mass / 12.0 * np.array([b * b + h * h, a * a + h * h, a * a + b * b])
+        # The constants MuJoCo derives from masses and sizes (the constraint solver's inverse weights, ...):
+        # left at the compiled box's, a 2-10 kg box of another size blew the simulation up within 20 s of
+        # random latent actions (box at 3e7 m), where the compiled 5 kg box did not.
+        import mujoco
+
+        mujoco.mj_setConst(model, self._scratch)
 
     def _goal_distance(self, root_xy: np.ndarray, i=slice(None)) -> np.ndarray:
         """Each env's distance to its phase's goal: the walker to REACH_M of the box, the box to its target."""

@@ -35,6 +35,9 @@ def test_each_env_pushes_a_box_of_its_own_size_and_mass_that_rests_on_the_floor(
     # A solid box's inertia for its size and mass, and the box stands flush: its centre its half height up.
     a, b, h = 2 * sizes[0]
     np.testing.assert_allclose(env.sim.models[0].body_inertia[task.body], masses[0] / 12 * np.array([b*b + h*h, a*a + h*h, a*a + b*b]))
+    # MuJoCo's derived constants follow (mj_setConst): the box's inverse weight is its model's, a lighter box's larger.
+    invweight = np.array([m.body_invweight0[task.body, 0] for m in env.sim.models])
+    assert np.all(np.diff(invweight[np.argsort(masses)]) < 0)
     heights = np.array([d.qpos[q + 2] for d in env.datas])
     np.testing.assert_allclose(heights, sizes[:, 2], atol=1e-9)
     for _ in range(10):
