@@ -46,6 +46,10 @@ def _phase_figures(batch: dict) -> dict:
 class TaskTrainer(Trainer):
     worker_class = TaskRolloutWorker
 
+    @property
+    def resume_command(self) -> str:
+        return f"sfv task {self.config.env.task.replace('_', '-')}"
+
     def __init__(self, config: TaskConfig, resume: bool = False, progress: bool = True):
         super().__init__(config, resume=resume, progress=progress)
 

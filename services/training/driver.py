@@ -326,6 +326,8 @@ class Trainer:
     def _stop_requested(self) -> bool:
         return self.stop is not None and self.stop.requested is not None
 
+    resume_command = "sfv train"  # the command whose --resume continues a stopped run (TaskTrainer: sfv task KIND)
+
     def _stopped(self) -> None:
         """After a stop signal's checkpoint: the curve drawn, then `TrainingStopped` saying how to go on."""
         if self.config.plot_every:
@@ -333,7 +335,7 @@ class Trainer:
         newest = latest_checkpoint(self.run_dir)
         raise TrainingStopped(f"{self.run_dir}: stopped by {self.stop.name} at {self.samples:,} samples, "
                               f"iteration {self.iteration}; checkpoint {newest.name if newest else 'none'} written "
-                              f"(sfv train --resume --out {self.run_dir} continues)", self.stop.requested)
+                              f"({self.resume_command} --resume --out {self.run_dir} continues)", self.stop.requested)
 
     def _select_tuples(self, batch: dict) -> dict:
         """The tuples this update trains on (`--ppo.tuple-sampling`, paper 002 §5.2) and their
