@@ -21,7 +21,7 @@ def _train(out) -> list[str]:
 def _pipeline(video, models, out) -> list[str]:
     return [sys.executable, "-m", "services.cli", "pipeline", str(video), "--out", str(out), "--pose-models", str(models),
             "--iterations", "20", "--workers", "2", "--envs-per-worker", "2", "--init", "rsi", "--samples", "128",
-            "--batch-size", "128", "--helped-max-samples", "128", "--quiet"]
+            "--batch-size", "128", "--helped-max-samples", "128", "--body-alone-max-samples", "128", "--quiet"]
 
 
 def test_two_trainings_and_a_pipeline_at_once_all_finish(tmp_path, shared_dir):

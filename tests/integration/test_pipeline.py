@@ -22,7 +22,8 @@ def test_pipeline_video_to_controller(tmp_path, shared_dir):
     out = tmp_path / "pipe"
     cmd = [sys.executable, "-m", "services.cli", "pipeline", str(video), "--out", str(out), "--pose-models", str(models),
            "--iterations", "40", "--workers", "2", "--envs-per-worker", "2", "--init", "rsi", "--samples", "128",
-           "--batch-size", "128", "--helped-max-samples", "128", "--quiet"]  # one training: no train-on loop at 128 samples
+           "--batch-size", "128", "--helped-max-samples", "128", "--body-alone-max-samples", "128",
+           "--quiet"]  # one training per stage: no train-on loop at 128 samples (the default caps follow the clip: 1.3 M here)
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
     summary = json.loads(done.stdout.strip().splitlines()[-1])
