@@ -84,9 +84,9 @@ class TaskEnvConfig:
         if not any(name.strip() for name in self.start_motion.split(",")):
             out.append("--start-motion must name at least one clip")
         if not 0.0 <= self.push_start_share <= 1.0:
-            out.append(f"--push-start-share must lie in [0, 1], got {self.push_start_share}")
+            out.append(f"--env.push-start-share must lie in [0, 1], got {self.push_start_share}")
         if not self.box_shaping >= 0.0:
-            out.append(f"--box-shaping must be >= 0, got {self.box_shaping}")
+            out.append(f"--env.box-shaping must be >= 0, got {self.box_shaping}")
         for name in RANGES:
             lo, hi = getattr(self, name)
             if not 0 < lo <= hi:

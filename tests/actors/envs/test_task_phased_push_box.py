@@ -100,9 +100,9 @@ def test_progress_toward_the_phases_goal_is_paid_per_metre_and_standing_still_ea
 
 def test_bad_phased_settings_are_named():
     problems = TaskEnvConfig(task="push_box_phased", push_start_share=1.5, box_mass=(5.0, 1.0), box_shaping=-1).problems()
-    assert any("--push-start-share" in p for p in problems)
+    assert any("--env.push-start-share" in p for p in problems)
     assert any("--box-mass" in p for p in problems)
-    assert any("--box-shaping" in p for p in problems)
+    assert any("--env.box-shaping" in p for p in problems)
 
 
 def test_episodes_log_their_start_phase_and_whether_the_box_was_reached():
