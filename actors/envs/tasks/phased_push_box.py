@@ -32,10 +32,10 @@ sizes (3, m) and its mass (kg / 10).
 """
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 
 from actors.arenas.push_box import BOX_GEOM
-from actors.character.quaternion import quat_mul
 from actors.envs.tasks.geometry import polar
 from actors.envs.tasks.push_box import PushBoxTask
 
@@ -56,15 +56,11 @@ class PhasedPushBoxTask(PushBoxTask):
         self.half_size = np.tile(np.asarray(self.arena.half_size, float), (num_envs, 1))
         self.mass = np.full(num_envs, float(self.arena.mass))
         self.phase_reached = np.zeros(num_envs, bool)  # this step: the walker reached the box (GOTO done)
-        self._potential = np.zeros(num_envs)
+        self._distance = np.zeros(num_envs)  # each env's distance to its phase's goal after the last step
         if model is not None:
-            import mujoco
-
             self.geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, BOX_GEOM)
 
     def bind_models(self, models) -> None:
-        import mujoco
-
         self.models = list(models)
         self._scratch = mujoco.MjData(self.models[0])  # mj_setConst's workspace (every env's model has the same layout)
 
@@ -74,16 +70,10 @@ class PhasedPushBoxTask(PushBoxTask):
         pushing = rng.uniform() < c.push_start_share
         near = tuple(gap + float(self.half_size[i, :2].max()) for gap in PUSH_START_GAP_M)
         box_xy = root_xy + (polar(rng, near, yaw, np.radians(20.0)) if pushing else polar(rng, c.box_distance, yaw, np.pi / 4))
-        box_yaw = rng.uniform(-np.pi, np.pi)
-        lift = self.half_size[i, 2] / np.cos(np.arctan(self.arena.grade))
-        q, v = self.qpos_adr, self.qvel_adr
-        data.qpos[q:q + 3] = (box_xy[0], box_xy[1], float(self.arena.height_at(box_xy)) + lift)
-        data.qpos[q + 3:q + 7] = quat_mul(self._tilt, np.array([np.cos(box_yaw / 2), 0.0, 0.0, np.sin(box_yaw / 2)]))
-        data.qvel[v:v + 6] = 0.0
-        self._draw(i, root_xy, box_xy, rng)
+        self._place_box(i, root_xy, box_xy, self.half_size[i, 2] / np.cos(np.arctan(self.arena.grade)), rng, data)
         self.phase[i] = PUSH if pushing else GOTO
         self.box[i, :2] = box_xy
-        self._potential[i] = -self._goal_distance(root_xy[None], i)[0]
+        self._distance[i] = self._goal_distances(root_xy[None], self.phase[i:i + 1], self.box[i:i + 1, :2], self.target[i:i + 1])[0]
 
     def _resize(self, i: int, rng: np.random.Generator) -> None:
         """A new box for env i: half sizes and mass drawn, written into its model with a solid box's inertia."""
@@ -103,16 +93,13 @@ class PhasedPushBoxTask(PushBoxTask):
         # The constants MuJoCo derives from masses and sizes (the constraint solver's inverse weights, ...):
         # left at the compiled box's, a 2-10 kg box of another size blew the simulation up within 20 s of
         # random latent actions (box at 3e7 m), where the compiled 5 kg box did not.
-        import mujoco
-
         mujoco.mj_setConst(model, self._scratch)
 
-    def _goal_distance(self, root_xy: np.ndarray, i=slice(None)) -> np.ndarray:
+    @staticmethod
+    def _goal_distances(root_xy, phase, box_xy, target) -> np.ndarray:
         """Each env's distance to its phase's goal: the walker to REACH_M of the box, the box to its target."""
-        box_xy = self.box[i, :2].reshape(-1, 2)
         walker = np.maximum(np.linalg.norm(box_xy - root_xy, axis=1) - REACH_M, 0.0)
-        box = np.linalg.norm(self.target[i].reshape(-1, 2) - box_xy, axis=1)
-        return np.where(np.atleast_1d(self.phase[i]) == GOTO, walker, box)
+        return np.where(phase == GOTO, walker, np.linalg.norm(target - box_xy, axis=1))
 
     def rewards(self, root_xy: np.ndarray, vel_xy: np.ndarray, yaw: np.ndarray, rng: np.random.Generator):
         c = self.config
@@ -121,17 +108,16 @@ class PhasedPushBoxTask(PushBoxTask):
         self.phase_reached[:] = (self.phase == GOTO) & walker_at_box
         delivered = ((self.phase == PUSH) & (np.linalg.norm(self.target - box_xy, axis=1) < c.success_radius)
                      & (np.linalg.norm(self.box_vel, axis=1) < REST_SPEED))
-        potential = -self._goal_distance(root_xy)
-        rewards = c.box_shaping * (potential - self._potential)
+        distance = self._goal_distances(root_xy, self.phase, box_xy, self.target)
+        rewards = c.box_shaping * (self._distance - distance)
         changed = self.phase_reached | delivered
-        rewards[changed] = 0.0  # the goal changes: no shaping across it
-        rewards[changed] += c.success_bonus
+        rewards[changed] = c.success_bonus  # the goal changes: no progress is paid across it
         self.phase[self.phase_reached] = PUSH
         for i in np.flatnonzero(delivered):
             self._draw(i, root_xy[i], box_xy[i], rng)
-        self._potential[:] = potential
-        if changed.any():
-            self._potential[changed] = -self._goal_distance(root_xy)[changed]
+        self._distance[:] = distance
+        if changed.any():  # measured from the new goal on
+            self._distance[changed] = self._goal_distances(root_xy, self.phase, box_xy, self.target)[changed]
         return rewards, delivered
 
     def features(self, root_xy: np.ndarray, vel_xy: np.ndarray, yaw: np.ndarray, out: np.ndarray) -> np.ndarray:

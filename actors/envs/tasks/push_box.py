@@ -52,11 +52,14 @@ class PushBoxTask:
             self.body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, BOX_BODY)
 
     def reset(self, i: int, root_xy: np.ndarray, yaw: float, rng: np.random.Generator, data=None) -> None:
-        c = self.config
-        box_xy = root_xy + polar(rng, c.box_distance, yaw, np.pi / 4)
+        box_xy = root_xy + polar(rng, self.config.box_distance, yaw, np.pi / 4)
+        self._place_box(i, root_xy, box_xy, self._lift, rng, data)
+
+    def _place_box(self, i: int, root_xy: np.ndarray, box_xy: np.ndarray, lift: float, rng: np.random.Generator, data) -> None:
+        """The box at `box_xy` at a random yaw, its centre `lift` above the ground, at rest; its target drawn beyond it."""
         box_yaw = rng.uniform(-np.pi, np.pi)
         q, v = self.qpos_adr, self.qvel_adr
-        data.qpos[q:q + 3] = (box_xy[0], box_xy[1], float(self.arena.height_at(box_xy)) + self._lift)
+        data.qpos[q:q + 3] = (box_xy[0], box_xy[1], float(self.arena.height_at(box_xy)) + lift)
         data.qpos[q + 3:q + 7] = quat_mul(self._tilt, np.array([np.cos(box_yaw / 2), 0.0, 0.0, np.sin(box_yaw / 2)]))
         data.qvel[v:v + 6] = 0.0
         self._draw(i, root_xy, box_xy, rng)

@@ -90,7 +90,7 @@ def test_progress_toward_the_phases_goal_is_paid_per_metre_and_standing_still_ea
     task.box[:, :2] = [[3.0, 0.0], [3.0, 0.0], [0.5, 0.0]]
     task.target[:] = [[6.0, 0.0], [6.0, 0.0], [3.0, 0.0]]
     task.phase[:] = [GOTO, GOTO, PUSH]
-    task._potential[:] = [-(3.0 - REACH_M), -(3.0 - REACH_M), -2.8]  # env 2's box was 2.8 m from its target
+    task._distance[:] = [3.0 - REACH_M, 3.0 - REACH_M, 2.8]  # env 2's box was 2.8 m from its target
     walked = np.array([[0.5, 0.0], [0.0, 0.0], [0.0, 0.0]])  # env 0 walks half a metre toward its box, env 1 stays
     rewards, _ = task.rewards(walked, np.zeros((3, 2)), np.zeros(3), np.random.default_rng(0))
     np.testing.assert_allclose(rewards, [0.5, 0.0, 0.3], atol=1e-12)  # env 2's box moved 0.3 m toward its target
